@@ -1,0 +1,46 @@
+#pragma once
+// Error vocabulary. InputError is bad input (file, JSON-pointer field, reason): thrown by scene/,
+// app/ and file readers only, caught in main, printed as "fogmap: error: FILE: FIELD: REASON",
+// exit code 2. FOGMAP_ASSERT is for bugs: always on, prints file:line and exits 1.
+
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+namespace fogmap {
+
+struct InputError : std::runtime_error {
+    std::string file;    ///< path of the offending file ("" for command-line input)
+    std::string field;   ///< JSON pointer such as "/media/0/sigma_s", or "" for the whole file
+    std::string reason;  ///< what was found and what was expected
+    InputError(std::string file_, std::string field_, std::string reason_)
+        : std::runtime_error(format(file_, field_, reason_)),
+          file(std::move(file_)),
+          field(std::move(field_)),
+          reason(std::move(reason_)) {}
+
+    static std::string format(const std::string& file, const std::string& field,
+                              const std::string& reason) {
+        std::string s = file.empty() ? std::string("<command line>") : file;
+        if (!field.empty()) s += ": " + field;
+        return s + ": " + reason;
+    }
+};
+
+}  // namespace fogmap
+
+#define FOGMAP_ASSERT(cond, msg)                                                           \
+    do {                                                                                   \
+        if (!(cond)) {                                                                     \
+            std::fprintf(stderr, "fogmap: internal error: %s:%d: %s (%s)\n", __FILE__,     \
+                         __LINE__, msg, #cond);                                            \
+            std::exit(1);                                                                  \
+        }                                                                                  \
+    } while (0)
+
+#ifndef NDEBUG
+#define FOGMAP_DASSERT(cond, msg) FOGMAP_ASSERT(cond, msg)
+#else
+#define FOGMAP_DASSERT(cond, msg) ((void)0)
+#endif

@@ -1,0 +1,34 @@
+#pragma once
+// Procedural density grids fogmap generates itself (the bundled volumes/), and a writer for
+// small test grids. Output is a VDB file with one float fog-volume grid named "density"
+// (values in [0, 1], background 0), written atomically (temp file + rename).
+
+#include "core/math.h"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+namespace fogmap {
+
+enum class VolumeShape { Cloud, Plume };
+
+struct VolumeGenSettings {
+    VolumeShape shape = VolumeShape::Plume;
+    int resolution = 64;       ///< voxels along the longest axis
+    float voxel_size = 0.05f;  ///< world units per voxel
+    uint64_t seed = 1;         ///< noise seed
+};
+
+/// Writes a procedural cloud (billowy fBm blob) or plume (rising, widening, turbulent column).
+/// Throws std::runtime_error naming the path on I/O failure.
+void generate_volume(const VolumeGenSettings& settings, const std::string& path);
+
+/// Writes a float grid "name" whose voxel (i,j,k) for 0 <= i < nx, ... holds value(i,j,k)
+/// (zero values stay inactive), with per-axis voxel sizes (world units) and an index→world translation.
+/// For tests and fixtures. Throws std::runtime_error on I/O failure.
+void write_float_grid(const std::string& path, const std::string& name, int nx, int ny, int nz,
+                      const std::function<float(int, int, int)>& value, Vec3 voxel_size = Vec3(1.0f),
+                      Vec3 translation = Vec3(0.0f));
+
+}  // namespace fogmap

@@ -1,0 +1,33 @@
+#pragma once
+// Scene files: JSON ⇄ SceneDesc. Unknown keys are errors that list the known keys; wrong types
+// name the JSON pointer and the expected type; "--set a.b=v" overrides edit the JSON before it
+// is read, so command-line values pass the same checks. Colours accept a number or [r, g, b].
+
+#include "scene/scene_desc.h"
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+#include <vector>
+
+namespace fogmap {
+
+/// Reads `path`, applies overrides ("render.spp=64", "lights.0.intensity=[1,2,3]": the value is
+/// JSON if it parses as JSON, else a string), converts and validates.
+/// Throws InputError{path, field, reason}; JSON syntax errors give line and column.
+SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides = {});
+
+/// Applies one "dotted.key=value" override to a JSON document (creating missing object keys).
+/// Throws InputError{file, "/dotted/key", reason} if the path goes through a non-object or an
+/// array index out of range, or the text has no '='.
+void apply_override(nlohmann::json& doc, const std::string& assignment, const std::string& file);
+
+/// JSON document → SceneDesc (no validation). `file` is used in error messages and its folder
+/// becomes base_dir.
+SceneDesc scene_desc_from_json(const nlohmann::json& doc, const std::string& file);
+
+/// SceneDesc → JSON with every field (the effective settings printed by the report).
+nlohmann::json to_json(const SceneDesc& desc);
+nlohmann::json to_json(const RenderSettings& render);
+
+}  // namespace fogmap
