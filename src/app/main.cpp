@@ -1,1 +1,74 @@
-int main() { return 0; }
+// fogmap command line: render, info, volume. Parses arguments with CLI11 and maps failures to
+// exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else.
+
+#include "app/commands.h"
+#include "core/error.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+int main(int argc, char** argv) {
+    using namespace fogmap;
+    CLI::App app{"fogmap: volumetric photon mapping for OpenVDB smoke, fog and clouds"};
+    app.require_subcommand(1);
+
+    RenderArgs render;
+    int spp = 0, threads = 0, max_depth = 0;
+    long long seed = 0;
+    CLI::App* r = app.add_subcommand("render", "render a scene file to EXR + PNG");
+    r->add_option("scene", render.scene, "scene JSON file")->required();
+    r->add_option("-o,--output", render.output, "output .exr (default out/<scene>.exr)");
+    r->add_option("--png", render.png, "PNG preview path (default beside the EXR)");
+    r->add_option("--set", render.overrides, "override a setting, e.g. render.spp=64")->take_all();
+    r->add_option("--spp", spp, "samples per pixel (= --set render.spp=N)");
+    r->add_option("--threads", threads, "worker threads, 0 = all (= --set render.threads=N)");
+    r->add_option("--seed", seed, "random seed (= --set render.seed=N)");
+    r->add_option("--max-depth", max_depth, "max scattering vertices (= --set render.max_depth=N)");
+    r->add_option("--exposure", render.exposure, "PNG exposure in stops");
+    r->add_flag("-q,--quiet", render.quiet, "no progress bar");
+    r->add_flag("--json", render.json, "print the report as JSON on stdout");
+
+    std::string info_path;
+    bool info_json = false;
+    CLI::App* info = app.add_subcommand("info", "list the grids of a VDB file");
+    info->add_option("file", info_path, "VDB file")->required();
+    info->add_flag("--json", info_json, "JSON output");
+
+    VolumeArgs volume;
+    CLI::App* vol = app.add_subcommand("volume", "generate a procedural density grid");
+    vol->add_option("shape", volume.shape, "cloud or plume")->required();
+    vol->add_option("-o,--output", volume.output, "output .vdb")->required();
+    vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
+    vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
+    vol->add_option("--seed", volume.seed, "noise seed");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;
+    }
+    try {
+        if (*r) {
+            if (r->count("--spp")) render.overrides.push_back("render.spp=" + std::to_string(spp));
+            if (r->count("--threads"))
+                render.overrides.push_back("render.threads=" + std::to_string(threads));
+            if (r->count("--seed"))
+                render.overrides.push_back("render.seed=" + std::to_string(seed));
+            if (r->count("--max-depth"))
+                render.overrides.push_back("render.max_depth=" + std::to_string(max_depth));
+            return run_render(render);
+        }
+        if (*info) return run_info(info_path, info_json);
+        if (*vol) return run_volume(volume);
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
+        return 2;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

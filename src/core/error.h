@@ -30,13 +30,13 @@ struct InputError : std::runtime_error {
 
 }  // namespace fogmap
 
-#define FOGMAP_ASSERT(cond, msg)                                                           \
-    do {                                                                                   \
-        if (!(cond)) {                                                                     \
-            std::fprintf(stderr, "fogmap: internal error: %s:%d: %s (%s)\n", __FILE__,     \
-                         __LINE__, msg, #cond);                                            \
-            std::exit(1);                                                                  \
-        }                                                                                  \
+#define FOGMAP_ASSERT(cond, msg)                                                                 \
+    do {                                                                                         \
+        if (!(cond)) {                                                                           \
+            std::fprintf(stderr, "fogmap: internal error: %s:%d: %s (%s)\n", __FILE__, __LINE__, \
+                         msg, #cond);                                                            \
+            std::exit(1);                                                                        \
+        }                                                                                        \
     } while (0)
 
 #ifndef NDEBUG

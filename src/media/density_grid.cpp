@@ -1,1 +1,331 @@
-// placeholder: being written
+#include "media/density_grid.h"
+
+#include "core/error.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/tools/ChangeBackground.h>
+#include <openvdb/tools/Count.h>
+#include <openvdb/tools/Interpolation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+
+namespace fogmap {
+
+namespace {
+
+using openvdb::Coord;
+using openvdb::CoordBBox;
+using openvdb::FloatGrid;
+using openvdb::FloatTree;
+using Internal1 = FloatTree::RootNodeType::ChildNodeType;  // 4096^3 voxel nodes
+using Internal2 = Internal1::ChildNodeType;                // 128^3 voxel nodes
+using Leaf = FloatTree::LeafNodeType;                      // 8^3 voxels
+
+static_assert(Leaf::DIM == DensityGrid::kMajorantCell, "majorant cells are one leaf each");
+
+void init_openvdb() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+/// Calls leaf_fn(Leaf&) for every leaf node and tile_fn(float& value, CoordBBox) for every tile
+/// (active or inactive) at every internal level; tile values written by tile_fn are stored back.
+/// Tree-level value iterators would also visit each leaf voxel, so the levels are walked here.
+template <typename LeafFn, typename TileFn>
+void visit_nodes(FloatTree& tree, LeafFn&& leaf_fn, TileFn&& tile_fn) {
+    auto visit_tile = [&](auto& it, int dim) {
+        float v = *it;
+        const float before = v;
+        tile_fn(v, CoordBBox::createCube(it.getCoord(), dim));
+        if (!(v == before)) it.setValue(v);  // NaN != NaN, so a sanitized NaN is stored too
+    };
+    auto& root = tree.root();
+    for (auto it = root.beginValueAll(); it; ++it) visit_tile(it, Internal1::DIM);
+    for (auto c1 = root.beginChildOn(); c1; ++c1) {
+        for (auto it = c1->beginValueAll(); it; ++it) visit_tile(it, Internal2::DIM);
+        for (auto c2 = c1->beginChildOn(); c2; ++c2) {
+            for (auto it = c2->beginValueAll(); it; ++it) visit_tile(it, Leaf::DIM);
+            for (auto leaf = c2->beginChildOn(); leaf; ++leaf) leaf_fn(*leaf);
+        }
+    }
+}
+
+/// The load-time rule of DESIGN.md (Media) and STYLE.md (Errors): NaN, ±Inf, negative and
+/// denormal values become 0; `count` voxels carry this value (a tile covers many).
+void sanitize_value(float& v, uint64_t count, SanitizeStats* stats) {
+    if (std::isnan(v)) {
+        stats->nan += count;
+        v = 0.0f;
+    } else if (std::isinf(v)) {
+        stats->inf += count;
+        v = 0.0f;
+    } else if (v < 0.0f) {
+        stats->negative += count;
+        v = 0.0f;
+    } else if (std::fpclassify(v) == FP_SUBNORMAL) {
+        stats->denormal += count;
+        v = 0.0f;
+    }
+}
+
+int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+/// Majorants of DensityGrid: a point in cell c (index range [8c, 8c+8)) interpolates voxels
+/// 8c .. 8c+8 on each axis, so maj(c) = max over voxels in [8c, 8c+8]^3 (active or not).
+/// That box is cell c's own 8^3 voxels plus the low face / edge / corner voxels of its +1
+/// neighbours: maj(c) = max over d in {0,1}^3 of part(c + d)[d], where part(c')[d] is the max
+/// over the voxels of cell c' whose local coordinate is 0 on every axis where d is 1.
+MajorantGrid build_majorants(FloatTree& tree, const Box3& index_bounds) {
+    constexpr int kCell = DensityGrid::kMajorantCell;
+    MajorantGrid maj;
+    maj.cell = kCell;
+    if (index_bounds.empty()) return maj;
+    std::array<int, 3> c_lo{}, part_dims{};
+    for (int a = 0; a < 3; ++a) {
+        c_lo[a] = floor_div(static_cast<int>(std::floor(index_bounds.lo[a])), kCell);
+        const int c_hi = floor_div(static_cast<int>(std::floor(index_bounds.hi[a])), kCell);
+        maj.origin[a] = c_lo[a] * kCell;
+        maj.dims[a] = c_hi - c_lo[a] + 1;
+        part_dims[a] = maj.dims[a] + 1;  // one more cell per axis supplies voxel 8c+8
+    }
+    using Parts = std::array<float, 8>;  // index d = dx | dy << 1 | dz << 2
+    std::vector<Parts> parts(static_cast<size_t>(part_dims[0]) * part_dims[1] * part_dims[2],
+                             Parts{});
+    auto part_at = [&](int i, int j, int k) -> Parts& {
+        return parts[(static_cast<size_t>(k) * part_dims[1] + j) * part_dims[0] + i];
+    };
+    auto leaf_fn = [&](Leaf& leaf) {
+        const Coord o = leaf.origin();
+        const int i = floor_div(o.x(), kCell) - c_lo[0], j = floor_div(o.y(), kCell) - c_lo[1];
+        const int k = floor_div(o.z(), kCell) - c_lo[2];
+        if (i < 0 || j < 0 || k < 0 || i >= part_dims[0] || j >= part_dims[1] || k >= part_dims[2])
+            return;
+        const float* data = leaf.buffer().data();
+        Parts& p = part_at(i, j, k);
+        for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
+            // Leaf offset n = x << 6 | y << 3 | z (local coordinates).
+            const unsigned at_zero = ((n >> 6) == 0 ? 1u : 0u) | (((n >> 3) & 7) == 0 ? 2u : 0u) |
+                                     ((n & 7) == 0 ? 4u : 0u);
+            for (unsigned d = 0; d < 8; ++d)
+                if ((d & ~at_zero) == 0) p[d] = std::max(p[d], data[n]);
+        }
+    };
+    auto tile_fn = [&](float& v, const CoordBBox& box) {
+        if (!(v > 0.0f)) return;
+        std::array<int, 3> lo{}, hi{};
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = std::max(0, floor_div(box.min()[a], kCell) - c_lo[a]);
+            hi[a] = std::min(part_dims[a] - 1, floor_div(box.max()[a], kCell) - c_lo[a]);
+            if (lo[a] > hi[a]) return;
+        }
+        for (int k = lo[2]; k <= hi[2]; ++k)
+            for (int j = lo[1]; j <= hi[1]; ++j)
+                for (int i = lo[0]; i <= hi[0]; ++i)
+                    for (float& p : part_at(i, j, k)) p = std::max(p, v);
+    };
+    visit_nodes(tree, leaf_fn, tile_fn);
+
+    maj.max_density.assign(static_cast<size_t>(maj.dims[0]) * maj.dims[1] * maj.dims[2], 0.0f);
+    for (int k = 0; k < maj.dims[2]; ++k)
+        for (int j = 0; j < maj.dims[1]; ++j)
+            for (int i = 0; i < maj.dims[0]; ++i) {
+                float m = 0.0f;
+                for (int d = 0; d < 8; ++d)
+                    m = std::max(m, part_at(i + (d & 1), j + ((d >> 1) & 1), k + (d >> 2))[d]);
+                maj.max_density[(static_cast<size_t>(k) * maj.dims[1] + j) * maj.dims[0] + i] = m;
+            }
+    return maj;
+}
+
+std::string join(const std::vector<std::string>& names) {
+    std::string s;
+    for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
+    return s.empty() ? std::string("(none)") : s;
+}
+
+/// OpenVDB's affine matrices act on row vectors (p' = p M, translation in row 3); GLM's act on
+/// column vectors, so the GLM matrix is the transpose: column c of ours = row c of theirs.
+DMat4 to_glm(const openvdb::Mat4d& m) {
+    DMat4 r(1.0);
+    for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) r[c][row] = m(c, row);
+    return r;
+}
+
+void check_file_exists(const std::string& path, const std::string& field) {
+    if (!std::ifstream(path, std::ios::binary)) throw InputError(path, field, "cannot open file");
+}
+
+}  // namespace
+
+struct DensityGrid::Impl {
+    FloatGrid::Ptr grid;
+};
+
+struct DensityGrid::Sampler::Impl {
+    explicit Impl(const FloatGrid& grid) : acc(grid.getConstAccessor()) {}
+    FloatGrid::ConstAccessor acc;
+};
+
+DensityGrid::DensityGrid() : impl_(std::make_unique<Impl>()) {}
+DensityGrid::~DensityGrid() = default;
+
+std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
+                                               const std::string& grid_name,
+                                               const std::string& field) {
+    init_openvdb();
+    check_file_exists(path, field);
+    FloatGrid::Ptr grid;
+    try {
+        openvdb::io::File file(path);
+        file.open(/*delayLoad=*/false);
+        std::vector<std::string> names;
+        for (auto it = file.beginName(); it != file.endName(); ++it) names.push_back(*it);
+        if (std::find(names.begin(), names.end(), grid_name) == names.end()) {
+            throw InputError(path, field,
+                             "no grid '" + grid_name + "'; grids present: " + join(names));
+        }
+        openvdb::GridBase::Ptr base = file.readGrid(grid_name);
+        file.close();
+        grid = openvdb::gridPtrCast<FloatGrid>(base);
+        if (!grid) {
+            throw InputError(path, field,
+                             "grid '" + grid_name + "' has type " + base->valueType() +
+                                 "; expected a float grid");
+        }
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw InputError(path, field, std::string("cannot read VDB file: ") + e.what());
+    }
+    if (!grid->transform().isLinear()) {
+        throw InputError(path, field,
+                         "grid '" + grid_name + "' has a " + grid->transform().mapType() +
+                             " transform; expected an affine (linear) one");
+    }
+
+    std::unique_ptr<DensityGrid> out(new DensityGrid());
+    out->name_ = grid_name;
+    FloatTree& tree = grid->tree();
+    const float background = tree.background();
+    if (background != 0.0f) {
+        std::fprintf(stderr,
+                     "fogmap: warning: %s: grid '%s' has background %g; replaced by 0 "
+                     "(density outside active voxels is 0)\n",
+                     path.c_str(), grid_name.c_str(), background);
+        openvdb::tools::changeBackground(tree, 0.0f);
+    }
+
+    SanitizeStats& stats = out->sanitize_;
+    float max_density = 0.0f;
+    auto leaf_fn = [&](Leaf& leaf) {
+        float* data = leaf.buffer().data();
+        for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
+            sanitize_value(data[n], 1, &stats);
+            max_density = std::max(max_density, data[n]);
+        }
+    };
+    auto tile_fn = [&](float& v, const CoordBBox& box) {
+        sanitize_value(v, box.volume(), &stats);
+        max_density = std::max(max_density, v);
+    };
+    visit_nodes(tree, leaf_fn, tile_fn);
+    if (stats.total() > 0) {
+        std::fprintf(stderr,
+                     "fogmap: warning: %s: grid '%s': set to 0: %llu NaN, %llu infinite, "
+                     "%llu negative, %llu denormal voxel values\n",
+                     path.c_str(), grid_name.c_str(), static_cast<unsigned long long>(stats.nan),
+                     static_cast<unsigned long long>(stats.inf),
+                     static_cast<unsigned long long>(stats.negative),
+                     static_cast<unsigned long long>(stats.denormal));
+    }
+    out->max_density_ = max_density;
+    out->active_voxels_ = tree.activeVoxelCount();
+
+    CoordBBox active;
+    if (tree.evalActiveVoxelBoundingBox(active) && max_density > 0.0f) {
+        // Grown by one voxel: trilinear density ramps to 0 over the voxel beyond the last centre.
+        out->index_bounds_.lo =
+            Vec3(active.min().x() - 1, active.min().y() - 1, active.min().z() - 1);
+        out->index_bounds_.hi =
+            Vec3(active.max().x() + 1, active.max().y() + 1, active.max().z() + 1);
+    }
+    out->majorants_ = build_majorants(tree, out->index_bounds_);
+    out->index_to_world_ = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
+    out->impl_->grid = grid;
+    return out;
+}
+
+DensityGrid::Sampler::Sampler(const DensityGrid& grid)
+    : impl_(std::make_unique<Impl>(*grid.impl_->grid)) {}
+DensityGrid::Sampler::~Sampler() = default;
+DensityGrid::Sampler::Sampler(Sampler&&) noexcept = default;
+
+float DensityGrid::Sampler::density(const Vec3& p_index) {
+    return openvdb::tools::BoxSampler::sample(impl_->acc,
+                                              openvdb::Vec3R(p_index.x, p_index.y, p_index.z));
+}
+
+std::vector<GridInfo> inspect_vdb(const std::string& path) {
+    init_openvdb();
+    check_file_exists(path, "");
+    std::vector<GridInfo> infos;
+    try {
+        openvdb::io::File file(path);
+        file.open(/*delayLoad=*/false);
+        openvdb::GridPtrVecPtr grids = file.getGrids();
+        file.close();
+        for (const openvdb::GridBase::Ptr& grid : *grids) {
+            GridInfo info;
+            info.name = grid->getName();
+            info.value_type = grid->valueType();
+            info.grid_class = openvdb::GridBase::gridClassToString(grid->getGridClass());
+            const openvdb::math::Transform& xf = grid->transform();
+            const openvdb::Vec3d vs = xf.voxelSize();
+            info.voxel_size = Vec3(vs.x(), vs.y(), vs.z());
+            const openvdb::Vec3d t = xf.indexToWorld(openvdb::Vec3d(0.0));
+            info.translation = Vec3(t.x(), t.y(), t.z());
+            const CoordBBox bbox = grid->evalActiveVoxelBoundingBox();
+            if (!bbox.empty()) {
+                for (int a = 0; a < 3; ++a) {
+                    info.index_min[a] = bbox.min()[a];
+                    info.index_max[a] = bbox.max()[a];
+                }
+                for (int n = 0; n < 8; ++n) {
+                    const Coord& c0 = bbox.min();
+                    const Coord& c1 = bbox.max();
+                    const openvdb::Vec3d corner((n & 1) ? c1.x() : c0.x(),
+                                                (n & 2) ? c1.y() : c0.y(),
+                                                (n & 4) ? c1.z() : c0.z());
+                    const openvdb::Vec3d w = xf.indexToWorld(corner);
+                    info.world_bounds.extend(Vec3(w.x(), w.y(), w.z()));
+                }
+            }
+            info.active_voxels = grid->activeVoxelCount();
+            info.active_tiles = grid->baseTree().activeTileCount();
+            if (info.active_voxels > 0) {
+                if (auto fg = openvdb::gridPtrCast<FloatGrid>(grid)) {
+                    const auto mm = openvdb::tools::minMax(fg->tree(), /*threaded=*/false);
+                    info.min_value = mm.min();
+                    info.max_value = mm.max();
+                    info.scalar = true;
+                } else if (auto dg = openvdb::gridPtrCast<openvdb::DoubleGrid>(grid)) {
+                    const auto mm = openvdb::tools::minMax(dg->tree(), /*threaded=*/false);
+                    info.min_value = mm.min();
+                    info.max_value = mm.max();
+                    info.scalar = true;
+                }
+            }
+            infos.push_back(std::move(info));
+        }
+    } catch (const std::exception& e) {
+        throw InputError(path, "", std::string("cannot read VDB file: ") + e.what());
+    }
+    return infos;
+}
+
+}  // namespace fogmap

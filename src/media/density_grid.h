@@ -23,16 +23,16 @@ namespace fogmap {
 /// What `fogmap info` prints for one grid of a VDB file.
 struct GridInfo {
     std::string name;
-    std::string value_type;     ///< "float", "double", "vec3s", ...
-    std::string grid_class;     ///< "fog volume", "level set", "unknown", ...
-    Vec3 voxel_size{0.0f};      ///< world units per voxel along x, y, z
-    Vec3 translation{0.0f};     ///< index → world translation
+    std::string value_type;  ///< "float", "double", "vec3s", ...
+    std::string grid_class;  ///< "fog volume", "level set", "unknown", ...
+    Vec3 voxel_size{0.0f};   ///< world units per voxel along x, y, z
+    Vec3 translation{0.0f};  ///< index → world translation
     std::array<int, 3> index_min{0, 0, 0}, index_max{-1, -1, -1};  ///< active voxel bbox
-    Box3 world_bounds;          ///< active bbox in world space
-    uint64_t active_voxels = 0; ///< including voxels covered by active tiles
+    Box3 world_bounds;                                             ///< active bbox in world space
+    uint64_t active_voxels = 0;  ///< including voxels covered by active tiles
     uint64_t active_tiles = 0;
     double min_value = 0.0, max_value = 0.0;  ///< over active values (scalar grids only)
-    bool scalar = false;        ///< min/max are meaningful
+    bool scalar = false;                      ///< min/max are meaningful
 };
 
 /// Lists every grid of a VDB file. Throws InputError{path, "", reason} if unreadable.

@@ -1,1 +1,197 @@
-// placeholder: being written
+#include "media/medium.h"
+
+#include "core/error.h"
+
+#include <glm/gtc/matrix_inverse.hpp>
+
+#include <array>
+#include <cmath>
+
+namespace fogmap {
+
+namespace {
+
+constexpr int kMaxMedia = 16;  // validate() keeps scenes within this
+
+Mat4 to_float(const DMat4& m) { return Mat4(m); }
+
+Box3 transform_box(const Mat4& m, const Box3& b) {
+    Box3 out;
+    for (int c = 0; c < 8; ++c) {
+        const Vec3 p((c & 1) ? b.hi.x : b.lo.x, (c & 2) ? b.hi.y : b.lo.y,
+                     (c & 4) ? b.hi.z : b.lo.z);
+        out.extend(transform_point(m, p));
+    }
+    return out;
+}
+
+// -ln(1 - u) in double: the optical depth to the next event of a unit-rate Poisson process.
+double sample_optical_depth(Rng& rng) { return -std::log1p(-rng.uniform_double()); }
+
+}  // namespace
+
+Medium Medium::homogeneous(const MediumParams& params, const Box3& bounds_world) {
+    Medium m;
+    m.params_ = params;
+    m.sigma_t_max_ = max_component(m.sigma_t());
+    m.world_bounds_ = bounds_world;
+    return m;
+}
+
+Medium Medium::heterogeneous(const MediumParams& params, std::shared_ptr<const DensityGrid> grid,
+                             const Mat4& scene_transform) {
+    Medium m;
+    m.params_ = params;
+    m.sigma_t_max_ = max_component(m.sigma_t());
+    m.index_to_world_ = scene_transform * to_float(grid->index_to_world());
+    m.world_to_index_ = glm::inverse(m.index_to_world_);
+    if (!grid->empty()) m.world_bounds_ = transform_box(m.index_to_world_, grid->index_bounds());
+    m.grid_ = std::move(grid);
+    return m;
+}
+
+Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
+    if (medium.grid_) grid_sampler_.emplace(*medium.grid_);
+}
+
+float Medium::Sampler::density(const Vec3& p_world) {
+    if (!grid_sampler_) return medium_->world_bounds_.contains(p_world) ? 1.0f : 0.0f;
+    return grid_sampler_->density(transform_point(medium_->world_to_index_, p_world));
+}
+
+bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1) {
+    walking_ = false;
+    const Medium& m = *medium_;
+    if (m.sigma_t_max_ <= 0.0f || m.world_bounds_.empty()) return false;
+    if (!grid_sampler_) {
+        float te, tx;
+        if (!intersect_box(m.world_bounds_, ray, t0, t1, &te, &tx)) return false;
+        seg_t0_ = te;
+        seg_t1_ = tx;
+        seg_maj_ = m.sigma_t_max_;
+        return true;
+    }
+    // Heterogeneous: walk the majorant cells in index space; t is shared with world space
+    // because the map is affine.
+    const MajorantGrid& maj = m.grid_->majorants();
+    const Ray r{transform_point(m.world_to_index_, ray.o),
+                transform_vector(m.world_to_index_, ray.d)};
+    Box3 cells;
+    for (int a = 0; a < 3; ++a) {
+        cells.lo[a] = static_cast<float>(maj.origin[a]);
+        cells.hi[a] = static_cast<float>(maj.origin[a] + maj.dims[a] * maj.cell);
+    }
+    float te, tx;
+    if (!intersect_box(cells, r, t0, t1, &te, &tx)) return false;
+    const Vec3 p = r.at(0.5f * (te + std::min(tx, te + 1e-3f)));  // a point inside the first cell
+    for (int a = 0; a < 3; ++a) {
+        const float rel = (p[a] - cells.lo[a]) / static_cast<float>(maj.cell);
+        cell_[a] = std::clamp(static_cast<int>(std::floor(rel)), 0, maj.dims[a] - 1);
+        if (r.d[a] > 0.0f) {
+            step_[a] = 1;
+            t_next_[a] = (cells.lo[a] + (cell_[a] + 1) * maj.cell - r.o[a]) / r.d[a];
+            t_delta_[a] = maj.cell / r.d[a];
+        } else if (r.d[a] < 0.0f) {
+            step_[a] = -1;
+            t_next_[a] = (cells.lo[a] + cell_[a] * maj.cell - r.o[a]) / r.d[a];
+            t_delta_[a] = -maj.cell / r.d[a];
+        } else {
+            step_[a] = 0;
+            t_next_[a] = kInfinity;
+            t_delta_[a] = kInfinity;
+        }
+    }
+    seg_t1_ = te;  // next_segment() starts where the previous segment ended
+    t_end_ = tx;
+    walking_ = true;
+    return next_segment();
+}
+
+bool Medium::Sampler::next_segment() {
+    if (!walking_ || seg_t1_ >= t_end_) return walking_ = false;
+    const MajorantGrid& maj = medium_->grid_->majorants();
+    int axis = 0;
+    if (t_next_[1] < t_next_[axis]) axis = 1;
+    if (t_next_[2] < t_next_[axis]) axis = 2;
+    seg_t0_ = seg_t1_;
+    seg_t1_ = std::min(std::max(t_next_[axis], seg_t0_), t_end_);
+    seg_maj_ = maj.at(cell_[0], cell_[1], cell_[2]) * medium_->sigma_t_max_;
+    cell_[axis] += step_[axis];
+    t_next_[axis] += t_delta_[axis];
+    if (cell_[axis] < 0 || cell_[axis] >= maj.dims[axis]) t_end_ = seg_t1_;  // left the grid
+    return true;
+}
+
+bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
+    double tau = sample_optical_depth(rng);
+    for (;;) {
+        if (seg_maj_ > 0.0f) {
+            const double dt = tau / seg_maj_;
+            if (seg_t0_ + dt < seg_t1_) {
+                seg_t0_ = static_cast<float>(seg_t0_ + dt);
+                *t = seg_t0_;
+                *sigma_maj = seg_maj_;
+                return true;
+            }
+            tau -= static_cast<double>(seg_maj_) * (seg_t1_ - seg_t0_);
+        }
+        if (!next_segment()) return false;
+    }
+}
+
+TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
+                        Color* beta) {
+    const int n = static_cast<int>(media.size());
+    FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
+    std::array<float, kMaxMedia> t_next, mu;
+    for (int i = 0; i < n; ++i) {
+        t_next[i] = kInfinity;
+        if (media[i].begin_walk(ray, 0.0f, t_max) &&
+            !media[i].next_tentative(rng, &t_next[i], &mu[i]))
+            t_next[i] = kInfinity;
+    }
+    for (;;) {
+        int i = -1;
+        for (int k = 0; k < n; ++k)
+            if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+        if (i < 0) return {};
+        const float t = t_next[i];
+        const MediumParams& p = media[i].medium().params();
+        const float d = media[i].density(ray.at(t));
+        const Color sigma_s = d * p.sigma_s, sigma_a = d * p.sigma_a;
+        const float m = mu[i];
+        const float p_a = average(sigma_a) / m, p_s = average(sigma_s) / m;
+        const float u = rng.uniform();
+        if (u < p_a) return {TrackEvent::Absorbed, t, i};
+        if (u < p_a + p_s) {
+            *beta *= sigma_s / (m * p_s);
+            return {TrackEvent::Scattered, t, i};
+        }
+        // Null collision: weight (μ − σ_t)/(μ p_n), exactly 1 for grey media.
+        const float p_n = 1.0f - p_a - p_s;
+        if (p_n > 0.0f) *beta *= glm::max(Color(m) - sigma_s - sigma_a, Color(0.0f)) / (m * p_n);
+        if (!media[i].next_tentative(rng, &t_next[i], &mu[i])) t_next[i] = kInfinity;
+    }
+}
+
+Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng) {
+    Color T(1.0f);
+    for (Medium::Sampler& s : media) {
+        if (!s.begin_walk(ray, 0.0f, t_max)) continue;
+        const Color sigma_t_unit = s.medium().sigma_t();
+        float t, m;
+        while (s.next_tentative(rng, &t, &m)) {
+            const Color sigma_t = s.density(ray.at(t)) * sigma_t_unit;
+            T *= glm::max(Color(1.0f) - sigma_t / m, Color(0.0f));
+            const float tmax = max_component(T);
+            if (tmax <= 0.0f) return Color(0.0f);
+            if (tmax < 0.1f) {  // Russian roulette keeps thick media affordable, unbiased
+                if (rng.uniform() < 0.5f) return Color(0.0f);
+                T *= 2.0f;
+            }
+        }
+    }
+    return T;
+}
+
+}  // namespace fogmap

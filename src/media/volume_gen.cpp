@@ -1,1 +1,217 @@
-// placeholder: being written
+#include "media/volume_gen.h"
+
+#include "core/rng.h"
+
+#include <openvdb/openvdb.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <stdexcept>
+
+namespace fogmap {
+
+namespace {
+
+/// Voxels below this density stay inactive (and are not written).
+constexpr float kMinDensity = 1e-3f;
+
+void init_openvdb() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+/// Writes `grid` to "<path>.tmp-<pid>", then renames it over `path` (STYLE.md: outputs go to a
+/// temp file, then rename). Active-mask + Blosc (or zip) compression keeps files small.
+void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& path) {
+    init_openvdb();
+    const std::string tmp = path + ".tmp-" + std::to_string(static_cast<long>(getpid()));
+    try {
+        openvdb::io::File file(tmp);
+        const uint32_t codec = openvdb::io::Archive::hasBloscCompression()
+                                   ? openvdb::io::COMPRESS_BLOSC
+                                   : openvdb::io::COMPRESS_ZIP;
+        file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK | codec);
+        openvdb::GridPtrVec grids{grid};
+        file.write(grids);
+        file.close();
+    } catch (const std::exception& e) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error("cannot write volume '" + path + "': " + e.what());
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        throw std::runtime_error("cannot write volume '" + path + "': rename from '" + tmp +
+                                 "' failed");
+    }
+}
+
+openvdb::math::Transform::Ptr make_transform(const Vec3& voxel_size, const Vec3& translation) {
+    openvdb::Mat4d m = openvdb::Mat4d::identity();  // row-vector convention: translation in row 3
+    for (int a = 0; a < 3; ++a) {
+        m(a, a) = voxel_size[a];
+        m(3, a) = translation[a];
+    }
+    return openvdb::math::Transform::createLinearTransform(m);
+}
+
+// --- Noise: hashed gradient noise (Perlin 2002 quintic fade) and fBm, deterministic per seed.
+
+float smoothstep(float e0, float e1, float x) {
+    const float t = std::clamp((x - e0) / (e1 - e0), 0.0f, 1.0f);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+class Noise {
+public:
+    explicit Noise(uint64_t seed) : seed_(mix64(seed ^ 0x5EEDF06ull)) {}
+
+    /// Gradient noise, roughly in [-1, 1], 0 at integer lattice points.
+    float gradient(const Vec3& p) const {
+        const Vec3 f = glm::floor(p);
+        const int x0 = static_cast<int>(f.x), y0 = static_cast<int>(f.y);
+        const int z0 = static_cast<int>(f.z);
+        const Vec3 t = p - f;
+        const Vec3 u = t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f);
+        float v[8];
+        for (int c = 0; c < 8; ++c) {
+            const int dx = c & 1, dy = (c >> 1) & 1, dz = c >> 2;
+            v[c] = glm::dot(
+                lattice_gradient(x0 + dx, y0 + dy, z0 + dz),
+                t - Vec3(static_cast<float>(dx), static_cast<float>(dy), static_cast<float>(dz)));
+        }
+        const float x00 = v[0] + u.x * (v[1] - v[0]), x10 = v[2] + u.x * (v[3] - v[2]);
+        const float x01 = v[4] + u.x * (v[5] - v[4]), x11 = v[6] + u.x * (v[7] - v[6]);
+        const float y0v = x00 + u.y * (x10 - x00), y1v = x01 + u.y * (x11 - x01);
+        return 1.5f * (y0v + u.z * (y1v - y0v));
+    }
+
+    /// Fractional Brownian motion: sum of `octaves` gradient-noise octaves (gain 1/2,
+    /// lacunarity 2), normalised to roughly [-1, 1].
+    float fbm(Vec3 p, int octaves) const {
+        float sum = 0.0f, amp = 1.0f, norm = 0.0f;
+        for (int o = 0; o < octaves; ++o) {
+            sum += amp * gradient(p);
+            norm += amp;
+            amp *= 0.5f;
+            p = p * 2.0f + Vec3(17.3f, -9.1f, 5.7f);  // offset decorrelates octaves' lattices
+        }
+        return sum / norm;
+    }
+
+private:
+    Vec3 lattice_gradient(int x, int y, int z) const {
+        uint64_t h = mix64(seed_ ^ static_cast<uint32_t>(x));
+        h = mix64(h ^ (static_cast<uint64_t>(static_cast<uint32_t>(y)) << 21));
+        h = mix64(h ^ (static_cast<uint64_t>(static_cast<uint32_t>(z)) << 42));
+        // 12 cube-edge directions (Perlin 2002): unbiased and cheap.
+        static const std::array<Vec3, 12> kDirs = {
+            Vec3(1, 1, 0), Vec3(-1, 1, 0), Vec3(1, -1, 0), Vec3(-1, -1, 0),
+            Vec3(1, 0, 1), Vec3(-1, 0, 1), Vec3(1, 0, -1), Vec3(-1, 0, -1),
+            Vec3(0, 1, 1), Vec3(0, -1, 1), Vec3(0, 1, -1), Vec3(0, -1, -1)};
+        return kDirs[(h >> 32) % 12];
+    }
+
+    uint64_t seed_;
+};
+
+/// Rising column: radius grows with height, sways and is fBm-eroded at the edge, fades at top.
+/// `q` is the voxel position divided by the resolution: y in [0, 1], x and z in [-0.5, 0.5].
+float plume_density(const Noise& noise, const Vec3& q) {
+    const float h = q.y;
+    const Vec3 sway(0.07f * h * noise.fbm(Vec3(1.3f, 2.5f * h, 0.0f), 3), 0.0f,
+                    0.07f * h * noise.fbm(Vec3(7.9f, 2.5f * h, 3.1f), 3));
+    const float radius = 0.06f + 0.2f * h;
+    const float rho = glm::length(Vec2(q.x - sway.x, q.z - sway.z));
+    // Noise is stretched along y and advected upward, so eddies look like rising turbulence.
+    const Vec3 nq(q.x * 7.0f, q.y * 5.0f, q.z * 7.0f);
+    const float rho_eroded = rho + 0.35f * radius * noise.fbm(nq, 5);
+    float d = 1.0f - smoothstep(0.45f * radius, radius, rho_eroded);
+    d *= 1.0f - smoothstep(0.7f, 0.98f, h);                     // fade toward the top
+    d *= smoothstep(0.0f, 0.04f, h + 0.02f);                    // soft but dense base at y = 0
+    d *= 0.75f + 0.25f * noise.fbm(nq * 2.0f + Vec3(3.3f), 3);  // interior wisps
+    d *= 1.0f - smoothstep(0.42f, 0.5f, std::max(std::abs(q.x), std::abs(q.z)));
+    return std::clamp(d, 0.0f, 1.0f);
+}
+
+/// Cumulus: union of spheres (smallest signed distance), fBm-displaced, flattened base.
+/// `q` is the voxel position divided by the resolution: x in [-0.5, 0.5], y, z in [-0.4, 0.4].
+float cloud_density(const Noise& noise, const Vec3& q) {
+    static const std::array<std::array<float, 4>, 6> kSpheres = {{
+        {0.0f, -0.07f, 0.0f, 0.2f},
+        {-0.19f, -0.11f, 0.03f, 0.14f},
+        {0.2f, -0.12f, -0.02f, 0.13f},
+        {0.05f, 0.06f, 0.0f, 0.13f},
+        {-0.08f, 0.02f, 0.07f, 0.12f},
+        {0.1f, -0.05f, 0.08f, 0.1f},
+    }};
+    float sd = 1e9f;
+    for (const auto& s : kSpheres)
+        sd = std::min(sd, glm::length(q - Vec3(s[0], s[1], s[2])) - s[3]);
+    sd = std::max(sd, -0.17f - q.y);  // flat base at y = -0.17
+    sd += 0.06f * noise.fbm(q * 6.0f, 5);
+    float d = smoothstep(0.02f, -0.03f, sd);  // soft edge, ~5% of the resolution
+    d *= 0.8f + 0.2f * noise.fbm(q * 12.0f + Vec3(5.1f), 3);
+    d *= 1.0f - smoothstep(0.44f, 0.5f, std::abs(q.x));
+    d *= 1.0f - smoothstep(0.34f, 0.4f, std::max(std::abs(q.y), std::abs(q.z)));
+    return std::clamp(d, 0.0f, 1.0f);
+}
+
+}  // namespace
+
+void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
+    init_openvdb();
+    const int res = std::max(settings.resolution, 8);
+    const float inv_res = 1.0f / static_cast<float>(res);
+    const Noise noise(settings.seed);
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    auto acc = grid->getAccessor();
+    // Index ranges: the plume stands on voxel row y = 0 centred on x = z = 0; the cloud is
+    // centred on the index origin. Translation 0 keeps those placements in world space.
+    const int half = res / 2;
+    const bool plume = settings.shape == VolumeShape::Plume;
+    const int y0 = plume ? 0 : -static_cast<int>(0.4f * res);
+    const int y1 = plume ? res - 1 : -y0;
+    const int zh = plume ? half : static_cast<int>(0.4f * res);
+    for (int k = -zh; k <= zh; ++k) {
+        for (int j = y0; j <= y1; ++j) {
+            for (int i = -half; i <= half; ++i) {
+                const Vec3 q =
+                    Vec3(static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)) *
+                    inv_res;
+                const float d = plume ? plume_density(noise, q) : cloud_density(noise, q);
+                if (d >= kMinDensity) acc.setValue(openvdb::Coord(i, j, k), d);
+            }
+        }
+    }
+    grid->pruneGrid();
+    grid->setName("density");
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->setTransform(make_transform(Vec3(settings.voxel_size), Vec3(0.0f)));
+    grid->setSaveFloatAsHalf(true);  // noise fields need no more; halves the file
+    write_grid_atomic(grid, path);
+}
+
+void write_float_grid(const std::string& path, const std::string& name, int nx, int ny, int nz,
+                      const std::function<float(int, int, int)>& value, Vec3 voxel_size,
+                      Vec3 translation) {
+    init_openvdb();
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    auto acc = grid->getAccessor();
+    for (int k = 0; k < nz; ++k)
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                const float v = value(i, j, k);
+                if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
+            }
+    grid->setName(name);
+    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+    grid->setTransform(make_transform(voxel_size, translation));
+    write_grid_atomic(grid, path);
+}
+
+}  // namespace fogmap

@@ -25,10 +25,10 @@ struct VolumeGenSettings {
 void generate_volume(const VolumeGenSettings& settings, const std::string& path);
 
 /// Writes a float grid "name" whose voxel (i,j,k) for 0 <= i < nx, ... holds value(i,j,k)
-/// (zero values stay inactive), with per-axis voxel sizes (world units) and an index→world translation.
-/// For tests and fixtures. Throws std::runtime_error on I/O failure.
+/// (zero values stay inactive), with per-axis voxel sizes (world units) and an index→world
+/// translation. For tests and fixtures. Throws std::runtime_error on I/O failure.
 void write_float_grid(const std::string& path, const std::string& name, int nx, int ny, int nz,
-                      const std::function<float(int, int, int)>& value, Vec3 voxel_size = Vec3(1.0f),
-                      Vec3 translation = Vec3(0.0f));
+                      const std::function<float(int, int, int)>& value,
+                      Vec3 voxel_size = Vec3(1.0f), Vec3 translation = Vec3(0.0f));
 
 }  // namespace fogmap

@@ -33,8 +33,8 @@ enum class LightType { Point, Spot, Quad, Sun, Environment };
 
 struct LightDesc {
     LightType type = LightType::Point;
-    Color intensity{1.0f};   ///< point, spot: radiant intensity, W/sr
-    Vec3 position{0.0f};     ///< point, spot: world position
+    Color intensity{1.0f};              ///< point, spot: radiant intensity, W/sr
+    Vec3 position{0.0f};                ///< point, spot: world position
     Vec3 direction{0.0f, -1.0f, 0.0f};  ///< spot, sun: the direction light travels (normalised)
     float cone_angle_deg = 30.0f;       ///< spot: half-angle where intensity reaches 0
     float cone_delta_deg = 5.0f;        ///< spot: width of the smooth falloff inside the cone
@@ -50,52 +50,53 @@ enum class MaterialType { Diffuse, Mirror, Glass };
 
 struct MaterialDesc {
     MaterialType type = MaterialType::Diffuse;
-    Color albedo{0.8f};       ///< diffuse: reflectance in [0, 1]; mirror: reflectance in [0, 1]
-    float ior = 1.5f;         ///< glass: index of refraction (> 0), outside is 1
+    Color albedo{0.8f};  ///< diffuse: reflectance in [0, 1]; mirror: reflectance in [0, 1]
+    float ior = 1.5f;    ///< glass: index of refraction (> 0), outside is 1
 };
 
 enum class ShapeType { Quad, Box, Sphere, Mesh };
 
 struct ShapeDesc {
     ShapeType type = ShapeType::Quad;
-    std::string material;              ///< key into SceneDesc::materials
-    Vec3 corner{0.0f};                 ///< quad
-    Vec3 edge_u{1.0f, 0.0f, 0.0f};     ///< quad
-    Vec3 edge_v{0.0f, 0.0f, 1.0f};     ///< quad
-    Vec3 min{-0.5f}, max{0.5f};        ///< box (axis-aligned before the transform)
-    Vec3 center{0.0f};                 ///< sphere
-    float radius = 1.0f;               ///< sphere, > 0
-    std::string file;                  ///< mesh: OBJ or PLY path, relative to the scene file
-    TransformDesc transform;           ///< applied to the shape (sphere: translation+uniform scale)
+    std::string material;           ///< key into SceneDesc::materials
+    Vec3 corner{0.0f};              ///< quad
+    Vec3 edge_u{1.0f, 0.0f, 0.0f};  ///< quad
+    Vec3 edge_v{0.0f, 0.0f, 1.0f};  ///< quad
+    Vec3 min{-0.5f}, max{0.5f};     ///< box (axis-aligned before the transform)
+    Vec3 center{0.0f};              ///< sphere
+    float radius = 1.0f;            ///< sphere, > 0
+    std::string file;               ///< mesh: OBJ or PLY path, relative to the scene file
+    TransformDesc transform;        ///< applied to the shape (sphere: translation+uniform scale)
 };
 
 enum class MediumType { Vdb, Homogeneous };
 
 struct MediumDesc {
     MediumType type = MediumType::Vdb;
-    std::string file;                   ///< vdb: path relative to the scene file
-    std::string grid = "density";       ///< vdb: name of a float grid
-    TransformDesc transform;            ///< vdb: scene transform applied after the grid's own
-    float density_scale = 1.0f;         ///< multiplies the grid values (>= 0)
-    Color sigma_s{1.0f};                ///< scattering coefficient per unit density, 1/world unit
-    Color sigma_a{0.0f};                ///< absorption coefficient per unit density, 1/world unit
-    float g = 0.0f;                     ///< Henyey-Greenstein asymmetry in (-1, 1)
-    std::optional<Box3> bounds;         ///< homogeneous: box ("bounds": {"min","max"}); absent = whole scene
+    std::string file;              ///< vdb: path relative to the scene file
+    std::string grid = "density";  ///< vdb: name of a float grid
+    TransformDesc transform;       ///< vdb: scene transform applied after the grid's own
+    float density_scale = 1.0f;    ///< multiplies the grid values (>= 0)
+    Color sigma_s{1.0f};           ///< scattering coefficient per unit density, 1/world unit
+    Color sigma_a{0.0f};           ///< absorption coefficient per unit density, 1/world unit
+    float g = 0.0f;                ///< Henyey-Greenstein asymmetry in (-1, 1)
+    std::optional<Box3>
+        bounds;  ///< homogeneous: box ("bounds": {"min","max"}); absent = whole scene
 };
 
 enum class Integrator { Path };
 
 struct RenderSettings {
     Integrator integrator = Integrator::Path;
-    int spp = 16;           ///< samples per pixel, >= 1
-    int max_depth = 64;     ///< scattering/bounce vertices per path, >= 1 (1 = direct light only)
-    uint64_t seed = 1;      ///< results are a function of the seed alone
-    int threads = 0;        ///< 0 = all cores
+    int spp = 16;        ///< samples per pixel, >= 1
+    int max_depth = 64;  ///< scattering/bounce vertices per path, >= 1 (1 = direct light only)
+    uint64_t seed = 1;   ///< results are a function of the seed alone
+    int threads = 0;     ///< 0 = all cores
 };
 
 struct SceneDesc {
-    std::string path;       ///< the scene file (for messages); "" when built in code
-    std::string base_dir;   ///< folder that relative file paths resolve against
+    std::string path;      ///< the scene file (for messages); "" when built in code
+    std::string base_dir;  ///< folder that relative file paths resolve against
     CameraDesc camera;
     std::vector<LightDesc> lights;
     std::map<std::string, MaterialDesc> materials;

@@ -1,1 +1,520 @@
-// placeholder: being written
+#include "scene/scene_desc_json.h"
+
+#include "core/error.h"
+#include "scene/json_reader.h"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace fogmap {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr std::array<LightType, 5> kLightTypes{LightType::Point, LightType::Spot, LightType::Quad,
+                                               LightType::Sun, LightType::Environment};
+constexpr std::array<MaterialType, 3> kMaterialTypes{MaterialType::Diffuse, MaterialType::Mirror,
+                                                     MaterialType::Glass};
+constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, ShapeType::Sphere,
+                                               ShapeType::Mesh};
+constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
+constexpr std::array<Integrator, 1> kIntegrators{Integrator::Path};
+
+// ---- Field lists -------------------------------------------------------------------------------
+// One list per struct (and per type), walked by both the reader and the writer, so the keys a
+// type accepts and the keys to_json writes cannot drift apart. The `type` key is handled by the
+// callers because it selects the list.
+
+template <class C, class V>
+void camera_fields(C& c, V& v) {
+    v.vec3("position", c.position);
+    v.vec3("look_at", c.look_at);
+    v.vec3("up", c.up);
+    v.value("fov_deg", c.fov_deg);
+    v.value("width", c.width);
+    v.value("height", c.height);
+}
+
+template <class L, class V>
+void light_fields(L& l, V& v) {
+    switch (l.type) {
+        case LightType::Point:
+            v.color("intensity", l.intensity);
+            v.vec3("position", l.position);
+            break;
+        case LightType::Spot:
+            v.color("intensity", l.intensity);
+            v.vec3("position", l.position);
+            v.vec3("direction", l.direction);
+            v.value("cone_angle_deg", l.cone_angle_deg);
+            v.value("cone_delta_deg", l.cone_delta_deg);
+            break;
+        case LightType::Quad:
+            v.vec3("corner", l.corner);
+            v.vec3("edge_u", l.edge_u);
+            v.vec3("edge_v", l.edge_v);
+            v.color("radiance", l.radiance);
+            break;
+        case LightType::Sun:
+            v.vec3("direction", l.direction);
+            v.color("irradiance", l.irradiance);
+            v.value("angular_radius_deg", l.angular_radius_deg);
+            break;
+        case LightType::Environment:
+            v.color("radiance", l.radiance);
+            break;
+    }
+}
+
+template <class M, class V>
+void material_fields(M& m, V& v) {
+    switch (m.type) {
+        case MaterialType::Diffuse:
+        case MaterialType::Mirror:
+            v.color("albedo", m.albedo);
+            break;
+        case MaterialType::Glass:
+            v.value("ior", m.ior);
+            break;
+    }
+}
+
+template <class S, class V>
+void shape_fields(S& s, V& v) {
+    v.value("material", s.material);
+    switch (s.type) {
+        case ShapeType::Quad:
+            v.vec3("corner", s.corner);
+            v.vec3("edge_u", s.edge_u);
+            v.vec3("edge_v", s.edge_v);
+            break;
+        case ShapeType::Box:
+            v.vec3("min", s.min);
+            v.vec3("max", s.max);
+            break;
+        case ShapeType::Sphere:
+            v.vec3("center", s.center);
+            v.value("radius", s.radius);
+            break;
+        case ShapeType::Mesh:
+            v.value("file", s.file);
+            break;
+    }
+    v.transform("transform", s.transform);
+}
+
+template <class M, class V>
+void medium_fields(M& m, V& v) {
+    switch (m.type) {
+        case MediumType::Vdb:
+            v.value("file", m.file);
+            v.value("grid", m.grid);
+            v.transform("transform", m.transform);
+            break;
+        case MediumType::Homogeneous:
+            v.bounds("bounds", m.bounds);
+            break;
+    }
+    v.value("density_scale", m.density_scale);
+    v.color("sigma_s", m.sigma_s);
+    v.color("sigma_a", m.sigma_a);
+    v.value("g", m.g);
+}
+
+template <class R, class V>
+void render_fields(R& r, V& v) {
+    v.value("spp", r.spp);
+    v.value("max_depth", r.max_depth);
+    v.value("seed", r.seed);
+    v.value("threads", r.threads);
+}
+
+// ---- Reading -----------------------------------------------------------------------------------
+
+/// M = T * Rz * Ry * Rx * S, or a row-major affine "matrix" (exclusive with the others).
+Mat4 read_transform(const json& v, const std::string& file, const std::string& pointer) {
+    JsonReader r(v, file, pointer);
+    if (const json* m = r.find("matrix")) {
+        for (const char* other : {"translate", "rotate_deg", "scale"}) {
+            if (v.contains(other)) {
+                r.fail(r.pointer(other), std::string("'") + other +
+                                             "' cannot be combined with 'matrix'; give either a "
+                                             "matrix or translate/rotate_deg/scale");
+            }
+        }
+        if (!m->is_array() || m->size() != 16) {
+            r.fail(r.pointer("matrix"),
+                   "expected 16 numbers (row-major 4x4), found " + describe_json(*m));
+        }
+        Mat4 out(1.0f);
+        for (int row = 0; row < 4; ++row) {
+            for (int col = 0; col < 4; ++col) {
+                const size_t i = size_t(row * 4 + col);
+                out[col][row] = json_to_float(
+                    (*m)[i], file, json_pointer_append(r.pointer("matrix"), std::to_string(i)));
+            }
+        }
+        if (out[0][3] != 0.0f || out[1][3] != 0.0f || out[2][3] != 0.0f || out[3][3] != 1.0f) {
+            r.fail(r.pointer("matrix"),
+                   "expected an affine matrix whose last row is [0, 0, 0, 1], "
+                   "found [" +
+                       (*m)[12].dump() + ", " + (*m)[13].dump() + ", " + (*m)[14].dump() + ", " +
+                       (*m)[15].dump() + "]");
+        }
+        r.finish();
+        return out;
+    }
+    Vec3 translate(0.0f), rotate_deg(0.0f), scale(1.0f);
+    r.read_vec3("translate", &translate);
+    r.read_vec3("rotate_deg", &rotate_deg);
+    if (const json* s = r.find("scale"))
+        scale = json_to_vec3_or_number(*s, file, r.pointer("scale"));
+    r.finish();
+    Mat4 m = glm::translate(Mat4(1.0f), translate);
+    m = glm::rotate(m, glm::radians(rotate_deg.z), Vec3(0.0f, 0.0f, 1.0f));
+    m = glm::rotate(m, glm::radians(rotate_deg.y), Vec3(0.0f, 1.0f, 0.0f));
+    m = glm::rotate(m, glm::radians(rotate_deg.x), Vec3(1.0f, 0.0f, 0.0f));
+    return glm::scale(m, scale);
+}
+
+struct FieldReader {
+    JsonReader& r;
+    void vec3(const char* key, Vec3& x) { r.read_vec3(key, &x); }
+    void color(const char* key, Color& x) { r.read_color(key, &x); }
+    template <class T>
+    void value(const char* key, T& x) {
+        r.read(key, &x);
+    }
+    void transform(const char* key, TransformDesc& t) {
+        if (const json* v = r.find(key)) t.matrix = read_transform(*v, r.file(), r.pointer(key));
+    }
+    void bounds(const char* key, std::optional<Box3>& b) {
+        const json* v = r.find(key);
+        if (!v) return;
+        JsonReader br(*v, r.file(), r.pointer(key));
+        Box3 box;
+        br.require("min", "[x, y, z]");
+        br.require("max", "[x, y, z]");
+        br.read_vec3("min", &box.lo);
+        br.read_vec3("max", &box.hi);
+        br.finish();
+        b = box;
+    }
+};
+
+/// Reads an array member; absent = empty.
+template <class T, class F>
+std::vector<T> read_array(JsonReader& top, const char* key, F read_one) {
+    std::vector<T> out;
+    const json* a = top.find(key);
+    if (!a) return out;
+    if (!a->is_array()) top.fail(top.pointer(key), "expected an array, found " + describe_json(*a));
+    for (size_t i = 0; i < a->size(); ++i) {
+        JsonReader r((*a)[i], top.file(), json_pointer_append(top.pointer(key), std::to_string(i)));
+        out.push_back(read_one(r));
+        r.finish();
+    }
+    return out;
+}
+
+// ---- Writing -----------------------------------------------------------------------------------
+
+/// The shortest decimal that reads back as the same float, so reports show 0.8, not
+/// 0.800000011920929, and from_json(to_json(x)) == x exactly.
+double clean(float f) {
+    char buf[32];
+    for (int precision = 6; precision <= 9; ++precision) {
+        std::snprintf(buf, sizeof(buf), "%.*g", precision, double(f));
+        if (std::strtof(buf, nullptr) == f) break;
+    }
+    return std::strtod(buf, nullptr);
+}
+
+json vec_json(const Vec3& v) { return json::array({clean(v.x), clean(v.y), clean(v.z)}); }
+
+json transform_json(const TransformDesc& t) {
+    json m = json::array();
+    for (int row = 0; row < 4; ++row) {
+        for (int col = 0; col < 4; ++col) m.push_back(clean(t.matrix[col][row]));
+    }
+    return json{{"matrix", m}};
+}
+
+struct FieldWriter {
+    json& j;
+    void vec3(const char* key, const Vec3& x) { j[key] = vec_json(x); }
+    void color(const char* key, const Color& x) { j[key] = vec_json(x); }
+    void value(const char* key, float x) { j[key] = clean(x); }
+    template <class T>
+    void value(const char* key, const T& x) {
+        j[key] = x;
+    }
+    void transform(const char* key, const TransformDesc& t) { j[key] = transform_json(t); }
+    void bounds(const char* key, const std::optional<Box3>& b) {
+        if (b) j[key] = json{{"min", vec_json(b->lo)}, {"max", vec_json(b->hi)}};
+    }
+};
+
+template <class T, class F>
+json write_typed(const T& x, F fields) {
+    json j = json::object();
+    j["type"] = to_string(x.type);
+    FieldWriter w{j};
+    fields(x, w);
+    return j;
+}
+
+// ---- Files and overrides -----------------------------------------------------------------------
+
+std::string read_text(const std::string& path) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) {
+        throw InputError(path, "", std::string("cannot open file: ") + std::strerror(EISDIR));
+    }
+    errno = 0;
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        const int err = errno ? errno : ENOENT;
+        throw InputError(path, "", std::string("cannot open file: ") + std::strerror(err));
+    }
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    if (in.bad()) throw InputError(path, "", "cannot read file: " + std::string(strerror(errno)));
+    return ss.str();
+}
+
+/// nlohmann reports the byte index of the last character read; line and column are counted
+/// from the text so that they point at that character (1-based; tabs count as one column).
+json parse_text(const std::string& text, const std::string& path) {
+    try {
+        return json::parse(text);
+    } catch (const json::parse_error& e) {
+        const size_t offending = std::min(e.byte > 0 ? e.byte - 1 : 0, text.size());
+        size_t line = 1, line_start = 0;
+        for (size_t i = 0; i < offending; ++i) {
+            if (text[i] == '\n') {
+                ++line;
+                line_start = i + 1;
+            }
+        }
+        // Keep nlohmann's description but drop its own "[json.exception...] ... column N: ".
+        std::string detail = e.what();
+        const size_t column_at = detail.find("column ");
+        const size_t colon = detail.find(": ", column_at == std::string::npos ? 0 : column_at);
+        if (colon != std::string::npos) detail = detail.substr(colon + 2);
+        throw InputError(path, "",
+                         "invalid JSON at line " + std::to_string(line) + ", column " +
+                             std::to_string(offending - line_start + 1) + ": " + detail);
+    } catch (const json::exception& e) {  // e.g. out_of_range 406: number overflow
+        std::string detail = e.what();
+        const size_t bracket = detail.find("] ");
+        if (bracket != std::string::npos) detail = detail.substr(bracket + 2);
+        throw InputError(path, "", "invalid JSON: " + detail);
+    }
+}
+
+std::vector<std::string> split_key(const std::string& key) {
+    std::vector<std::string> parts;
+    size_t start = 0;
+    while (true) {
+        const size_t dot = key.find('.', start);
+        parts.push_back(key.substr(start, dot - start));
+        if (dot == std::string::npos) break;
+        start = dot + 1;
+    }
+    return parts;
+}
+
+bool is_index(const std::string& s) {
+    return !s.empty() && s.size() < 10 && s.find_first_not_of("0123456789") == std::string::npos;
+}
+
+/// "/render/spp" for "render.spp=64"; "" if the assignment has no '='.
+std::string override_pointer(const std::string& assignment) {
+    const size_t eq = assignment.find('=');
+    if (eq == std::string::npos) return "";
+    std::string pointer;
+    for (const auto& part : split_key(assignment.substr(0, eq))) {
+        pointer = json_pointer_append(pointer, part);
+    }
+    return pointer;
+}
+
+}  // namespace
+
+void apply_override(json& doc, const std::string& assignment, const std::string& file) {
+    const std::string origin = "--set '" + assignment + "': ";
+    const size_t eq = assignment.find('=');
+    if (eq == std::string::npos) {
+        throw InputError(file, "", origin + "expected key=value, e.g. render.spp=64");
+    }
+    const std::vector<std::string> parts = split_key(assignment.substr(0, eq));
+    json* node = &doc;
+    std::string pointer;
+    for (const auto& part : parts) {
+        if (part.empty()) {
+            throw InputError(file, pointer,
+                             origin +
+                                 "empty key segment; expected dotted keys "
+                                 "such as lights.0.intensity");
+        }
+        if (node->is_array()) {
+            if (!is_index(part)) {
+                throw InputError(file, pointer,
+                                 origin + "expected an array index, found '" + part + "'");
+            }
+            const size_t index = std::stoul(part);
+            if (index >= node->size()) {
+                throw InputError(file, json_pointer_append(pointer, part),
+                                 origin + "index " + part + " is out of range; the array has " +
+                                     std::to_string(node->size()) + " elements");
+            }
+            node = &(*node)[index];
+        } else if (node->is_object() || node->is_null()) {
+            node = &(*node)[part];  // creates missing keys; a wrong one fails as an unknown key
+        } else {
+            throw InputError(file, pointer,
+                             origin + "cannot set '" + part + "' inside " + describe_json(*node) +
+                                 "; expected an object");
+        }
+        pointer = json_pointer_append(pointer, part);
+    }
+    const std::string text = assignment.substr(eq + 1);
+    json value;
+    try {
+        value = json::parse(text, nullptr, false);
+    } catch (const json::exception&) {
+        value = json::value_t::discarded;
+    }
+    *node = value.is_discarded() ? json(text) : value;
+}
+
+SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
+    SceneDesc desc;
+    desc.path = file;
+    desc.base_dir = std::filesystem::path(file).parent_path().string();
+    JsonReader top(doc, file, "");
+
+    if (const json* v = top.find("camera")) {
+        JsonReader r(*v, file, top.pointer("camera"));
+        FieldReader f{r};
+        camera_fields(desc.camera, f);
+        r.finish();
+    }
+    desc.lights = read_array<LightDesc>(top, "lights", [](JsonReader& r) {
+        LightDesc l;
+        r.read_enum("type", kLightTypes, "light type", &l.type, true);
+        FieldReader f{r};
+        light_fields(l, f);
+        return l;
+    });
+    if (const json* v = top.find("materials")) {
+        if (!v->is_object()) {
+            top.fail(top.pointer("materials"),
+                     "expected an object (name -> material), found " + describe_json(*v));
+        }
+        for (const auto& item : v->items()) {
+            JsonReader r(item.value(), file,
+                         json_pointer_append(top.pointer("materials"), item.key()));
+            MaterialDesc m;
+            r.read_enum("type", kMaterialTypes, "material type", &m.type, true);
+            FieldReader f{r};
+            material_fields(m, f);
+            r.finish();
+            desc.materials[item.key()] = m;
+        }
+    }
+    desc.shapes = read_array<ShapeDesc>(top, "shapes", [](JsonReader& r) {
+        ShapeDesc s;
+        r.read_enum("type", kShapeTypes, "shape type", &s.type, true);
+        FieldReader f{r};
+        shape_fields(s, f);
+        return s;
+    });
+    desc.media = read_array<MediumDesc>(top, "media", [](JsonReader& r) {
+        MediumDesc m;
+        r.read_enum("type", kMediumTypes, "medium type", &m.type, true);
+        FieldReader f{r};
+        medium_fields(m, f);
+        return m;
+    });
+    if (const json* v = top.find("render")) {
+        JsonReader r(*v, file, top.pointer("render"));
+        r.read_enum("integrator", kIntegrators, "integrator", &desc.render.integrator);
+        FieldReader f{r};
+        render_fields(desc.render, f);
+        r.finish();
+    }
+    top.finish();
+    return desc;
+}
+
+json to_json(const RenderSettings& render) {
+    json j = json::object();
+    j["integrator"] = to_string(render.integrator);
+    FieldWriter w{j};
+    render_fields(render, w);
+    return j;
+}
+
+json to_json(const SceneDesc& desc) {
+    json j = json::object();
+    json camera = json::object();
+    FieldWriter w{camera};
+    camera_fields(desc.camera, w);
+    j["camera"] = camera;
+
+    j["lights"] = json::array();
+    for (const auto& l : desc.lights) {
+        j["lights"].push_back(
+            write_typed(l, [](const LightDesc& x, FieldWriter& f) { light_fields(x, f); }));
+    }
+    j["materials"] = json::object();
+    for (const auto& [name, m] : desc.materials) {
+        j["materials"][name] =
+            write_typed(m, [](const MaterialDesc& x, FieldWriter& f) { material_fields(x, f); });
+    }
+    j["shapes"] = json::array();
+    for (const auto& s : desc.shapes) {
+        j["shapes"].push_back(
+            write_typed(s, [](const ShapeDesc& x, FieldWriter& f) { shape_fields(x, f); }));
+    }
+    j["media"] = json::array();
+    for (const auto& m : desc.media) {
+        j["media"].push_back(
+            write_typed(m, [](const MediumDesc& x, FieldWriter& f) { medium_fields(x, f); }));
+    }
+    j["render"] = to_json(desc.render);
+    return j;
+}
+
+SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides) {
+    json doc = parse_text(read_text(path), path);
+    for (const auto& o : overrides) apply_override(doc, o, path);
+    try {
+        SceneDesc desc = scene_desc_from_json(doc, path);
+        validate(desc);
+        return desc;
+    } catch (const InputError& e) {
+        // A bad value that came from the command line says so, with the assignment.
+        for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {
+            const std::string pointer = override_pointer(*it);
+            if (!pointer.empty() && (e.field == pointer || e.field.rfind(pointer + "/", 0) == 0)) {
+                throw InputError(e.file, e.field, e.reason + " (from --set '" + *it + "')");
+            }
+        }
+        throw;
+    }
+}
+
+}  // namespace fogmap

@@ -1,1 +1,324 @@
-// placeholder: being written
+#include "scene/scene_desc.h"
+
+#include "core/error.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace fogmap {
+
+const char* to_string(LightType t) {
+    switch (t) {
+        case LightType::Point:
+            return "point";
+        case LightType::Spot:
+            return "spot";
+        case LightType::Quad:
+            return "quad";
+        case LightType::Sun:
+            return "sun";
+        case LightType::Environment:
+            return "environment";
+    }
+    return "?";
+}
+
+const char* to_string(MaterialType t) {
+    switch (t) {
+        case MaterialType::Diffuse:
+            return "diffuse";
+        case MaterialType::Mirror:
+            return "mirror";
+        case MaterialType::Glass:
+            return "glass";
+    }
+    return "?";
+}
+
+const char* to_string(ShapeType t) {
+    switch (t) {
+        case ShapeType::Quad:
+            return "quad";
+        case ShapeType::Box:
+            return "box";
+        case ShapeType::Sphere:
+            return "sphere";
+        case ShapeType::Mesh:
+            return "mesh";
+    }
+    return "?";
+}
+
+const char* to_string(MediumType t) {
+    switch (t) {
+        case MediumType::Vdb:
+            return "vdb";
+        case MediumType::Homogeneous:
+            return "homogeneous";
+    }
+    return "?";
+}
+
+const char* to_string(Integrator t) {
+    switch (t) {
+        case Integrator::Path:
+            return "path";
+    }
+    return "?";
+}
+
+namespace {
+
+constexpr int kMaxResolution = 16384;
+constexpr int kMaxDepthLimit = 100000;
+
+std::string num(double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof(buf), "%g", x);
+    return buf;
+}
+
+std::string vec(const Vec3& v) { return "[" + num(v.x) + ", " + num(v.y) + ", " + num(v.z) + "]"; }
+
+bool finite(const Vec3& v) { return is_finite(v); }
+
+// Checks collect the scene's path and one object's JSON pointer; each failed check throws
+// InputError{path, pointer/key, "<key> ...; found ..."}.
+class Checker {
+public:
+    Checker(const SceneDesc& desc, std::string pointer)
+        : file_(desc.path), pointer_(std::move(pointer)) {}
+
+    [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
+        throw InputError(file_, key.empty() ? pointer_ : pointer_ + "/" + key, reason);
+    }
+    void finite_vec(const std::string& key, const Vec3& v) const {
+        if (!finite(v)) fail(key, key + " must be finite; found " + vec(v));
+    }
+    void non_negative(const std::string& key, const Color& c) const {
+        finite_vec(key, c);
+        if (c.x < 0.0f || c.y < 0.0f || c.z < 0.0f) {
+            fail(key, key + " must be >= 0 per channel; found " + vec(c));
+        }
+    }
+    void non_negative(const std::string& key, float x) const {
+        if (!std::isfinite(x) || x < 0.0f)
+            fail(key, key + " must be finite and >= 0; found " + num(x));
+    }
+    void unit_interval(const std::string& key, const Color& c) const {
+        non_negative(key, c);
+        if (c.x > 1.0f || c.y > 1.0f || c.z > 1.0f) {
+            fail(key, key + " must be in [0, 1] per channel; found " + vec(c));
+        }
+    }
+    void non_zero(const std::string& key, const Vec3& v) const {
+        finite_vec(key, v);
+        if (glm::length(v) == 0.0f) fail(key, key + " must be a non-zero vector; found " + vec(v));
+    }
+    void int_range(const std::string& key, int x, int lo, int hi) const {
+        if (x < lo || x > hi) {
+            fail(key, key + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                          "]; found " + std::to_string(x));
+        }
+    }
+    /// Open interval (lo, hi) when open, else half-open [lo, hi).
+    void range(const std::string& key, float x, float lo, float hi, bool open_lo) const {
+        const bool ok = std::isfinite(x) && (open_lo ? x > lo : x >= lo) && x < hi;
+        if (!ok) {
+            fail(key, key + " must be in " + (open_lo ? "(" : "[") + num(lo) + ", " + num(hi) +
+                          "); found " + num(x));
+        }
+    }
+    void box(const std::string& key, const Vec3& lo, const Vec3& hi, const char* lo_name,
+             const char* hi_name) const {
+        finite_vec(key, lo);
+        finite_vec(key, hi);
+        if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z)) {
+            fail(key, std::string(lo_name) + " must be < " + hi_name + " on every axis; found " +
+                          lo_name + " " + vec(lo) + ", " + hi_name + " " + vec(hi));
+        }
+    }
+    void parallelogram(const Vec3& u, const Vec3& v) const {
+        finite_vec("edge_u", u);
+        finite_vec("edge_v", v);
+        if (glm::length(glm::cross(u, v)) == 0.0f) {
+            fail("edge_v", "edge_u " + vec(u) + " and edge_v " + vec(v) +
+                               " span no area; expected two non-parallel, non-zero edges");
+        }
+    }
+
+private:
+    std::string file_;
+    std::string pointer_;
+};
+
+void check_camera(const SceneDesc& desc) {
+    const CameraDesc& c = desc.camera;
+    const Checker k(desc, "/camera");
+    k.int_range("width", c.width, 1, kMaxResolution);
+    k.int_range("height", c.height, 1, kMaxResolution);
+    k.range("fov_deg", c.fov_deg, 0.0f, 180.0f, true);
+    k.finite_vec("position", c.position);
+    k.finite_vec("look_at", c.look_at);
+    k.non_zero("up", c.up);
+    const Vec3 view = c.look_at - c.position;
+    if (glm::length(view) == 0.0f) {
+        k.fail("look_at", "look_at equals position " + vec(c.position) +
+                              "; expected a point away from the camera");
+    }
+    // Relative test: sin of the angle between up and view below ~1e-6 is parallel for a float.
+    if (glm::length(glm::cross(glm::normalize(view), glm::normalize(c.up))) < 1e-6f) {
+        k.fail("up", "up " + vec(c.up) + " is parallel to the view direction " + vec(view) +
+                         "; expected a vector not parallel to look_at - position");
+    }
+}
+
+void check_light(const SceneDesc& desc, size_t i) {
+    const LightDesc& l = desc.lights[i];
+    const Checker k(desc, "/lights/" + std::to_string(i));
+    switch (l.type) {
+        case LightType::Point:
+            k.non_negative("intensity", l.intensity);
+            k.finite_vec("position", l.position);
+            break;
+        case LightType::Spot:
+            k.non_negative("intensity", l.intensity);
+            k.finite_vec("position", l.position);
+            k.non_zero("direction", l.direction);
+            k.range("cone_angle_deg", l.cone_angle_deg, 0.0f, 180.0f, true);
+            if (!std::isfinite(l.cone_delta_deg) || l.cone_delta_deg < 0.0f ||
+                l.cone_delta_deg > l.cone_angle_deg) {
+                k.fail("cone_delta_deg",
+                       "cone_delta_deg must be in [0, cone_angle_deg = " + num(l.cone_angle_deg) +
+                           "]; found " + num(l.cone_delta_deg));
+            }
+            break;
+        case LightType::Quad:
+            k.finite_vec("corner", l.corner);
+            k.parallelogram(l.edge_u, l.edge_v);
+            k.non_negative("radiance", l.radiance);
+            break;
+        case LightType::Sun:
+            k.non_zero("direction", l.direction);
+            k.non_negative("irradiance", l.irradiance);
+            k.range("angular_radius_deg", l.angular_radius_deg, 0.0f, 45.0f, false);
+            break;
+        case LightType::Environment:
+            k.non_negative("radiance", l.radiance);
+            break;
+    }
+}
+
+void check_material(const SceneDesc& desc, const std::string& name, const MaterialDesc& m) {
+    std::string pointer = "/materials/";
+    for (char c : name) pointer += c == '~' ? "~0" : c == '/' ? "~1" : std::string(1, c);
+    const Checker k(desc, pointer);
+    switch (m.type) {
+        case MaterialType::Diffuse:
+        case MaterialType::Mirror:
+            k.unit_interval("albedo", m.albedo);
+            break;
+        case MaterialType::Glass:
+            if (!std::isfinite(m.ior) || m.ior <= 0.0f) {
+                k.fail("ior", "ior must be finite and > 0; found " + num(m.ior));
+            }
+            break;
+    }
+}
+
+// A sphere stays a sphere only under rotation, uniform scale and translation: the columns of
+// the linear part must be orthogonal and of equal, non-zero length (relative tolerance 1e-4).
+void check_similarity(const Checker& k, const Mat4& m) {
+    const Vec3 c[3] = {Vec3(m[0]), Vec3(m[1]), Vec3(m[2])};
+    const Vec3 len(glm::length(c[0]), glm::length(c[1]), glm::length(c[2]));
+    const float scale = max_component(len);
+    const float tol = 1e-4f * scale * scale;
+    const bool ok = scale > 0.0f && std::abs(len.x - len.y) <= 1e-4f * scale &&
+                    std::abs(len.x - len.z) <= 1e-4f * scale &&
+                    std::abs(glm::dot(c[0], c[1])) <= tol &&
+                    std::abs(glm::dot(c[0], c[2])) <= tol && std::abs(glm::dot(c[1], c[2])) <= tol;
+    if (!ok) {
+        k.fail("transform",
+               "a sphere's transform must be rotation, uniform scale and translation; "
+               "found axis scales " +
+                   vec(len) + " (or sheared axes)");
+    }
+}
+
+void check_shape(const SceneDesc& desc, size_t i) {
+    const ShapeDesc& s = desc.shapes[i];
+    const Checker k(desc, "/shapes/" + std::to_string(i));
+    if (!desc.materials.count(s.material)) {
+        std::string known;
+        for (const auto& item : desc.materials) known += (known.empty() ? "" : ", ") + item.first;
+        k.fail("material", "unknown material '" + s.material + "'; " +
+                               (known.empty() ? std::string("the scene defines no materials")
+                                              : "known materials: " + known));
+    }
+    switch (s.type) {
+        case ShapeType::Quad:
+            k.finite_vec("corner", s.corner);
+            k.parallelogram(s.edge_u, s.edge_v);
+            break;
+        case ShapeType::Box:
+            k.box("max", s.min, s.max, "min", "max");
+            break;
+        case ShapeType::Sphere:
+            k.finite_vec("center", s.center);
+            check_similarity(k, s.transform.matrix);
+            if (!std::isfinite(s.radius) || s.radius <= 0.0f) {
+                k.fail("radius", "radius must be finite and > 0; found " + num(s.radius));
+            }
+            break;
+        case ShapeType::Mesh:
+            if (s.file.empty()) k.fail("file", "file is empty; expected an .obj or .ply path");
+            break;
+    }
+    for (int c = 0; c < 4; ++c) {
+        if (!finite(Vec3(s.transform.matrix[c]))) k.fail("transform", "transform is not finite");
+    }
+}
+
+void check_medium(const SceneDesc& desc, size_t i) {
+    const MediumDesc& m = desc.media[i];
+    const Checker k(desc, "/media/" + std::to_string(i));
+    k.non_negative("sigma_s", m.sigma_s);
+    k.non_negative("sigma_a", m.sigma_a);
+    k.non_negative("density_scale", m.density_scale);
+    if (!std::isfinite(m.g) || m.g <= -1.0f || m.g >= 1.0f) {
+        k.fail("g", "g must be in (-1, 1); found " + num(m.g));
+    }
+    switch (m.type) {
+        case MediumType::Vdb:
+            if (m.file.empty()) k.fail("file", "file is empty; expected a .vdb path");
+            if (m.grid.empty()) k.fail("grid", "grid is empty; expected a float grid name");
+            break;
+        case MediumType::Homogeneous:
+            if (m.bounds) k.box("bounds", m.bounds->lo, m.bounds->hi, "bounds.min", "bounds.max");
+            break;
+    }
+}
+
+void check_render(const SceneDesc& desc) {
+    const RenderSettings& r = desc.render;
+    const Checker k(desc, "/render");
+    if (r.spp < 1) k.fail("spp", "spp must be >= 1; found " + std::to_string(r.spp));
+    k.int_range("max_depth", r.max_depth, 1, kMaxDepthLimit);
+    if (r.threads < 0) {
+        k.fail("threads",
+               "threads must be >= 0 (0 = all cores); found " + std::to_string(r.threads));
+    }
+}
+
+}  // namespace
+
+void validate(const SceneDesc& desc) {
+    check_camera(desc);
+    for (size_t i = 0; i < desc.lights.size(); ++i) check_light(desc, i);
+    for (const auto& [name, m] : desc.materials) check_material(desc, name, m);
+    for (size_t i = 0; i < desc.shapes.size(); ++i) check_shape(desc, i);
+    for (size_t i = 0; i < desc.media.size(); ++i) check_medium(desc, i);
+    check_render(desc);
+}
+
+}  // namespace fogmap

@@ -10,10 +10,10 @@
 namespace fogmap {
 
 struct Mesh {
-    std::vector<Vec3> positions;      ///< world space
-    std::vector<uint32_t> indices;    ///< 3 per triangle, counter-clockwise seen from the front
-    int material = -1;                ///< index into Scene::materials
-    int light = -1;                   ///< index into Scene::lights when this mesh emits (quad light)
+    std::vector<Vec3> positions;    ///< world space
+    std::vector<uint32_t> indices;  ///< 3 per triangle, counter-clockwise seen from the front
+    int material = -1;              ///< index into Scene::materials
+    int light = -1;                 ///< index into Scene::lights when this mesh emits (quad light)
     size_t triangle_count() const { return indices.size() / 3; }
 };
 

@@ -1,1 +1,197 @@
-// placeholder: being written
+// The fogmap command line on bad and good input: one clear message naming file, field and reason,
+// exit code 2, and an existing output file left untouched; a good render writes EXR + PNG whole.
+
+#include "core/image.h"
+
+#include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace fogmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+    int code = -1;
+    std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+class Cli : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() /
+               ("fogmap_cli_" +
+                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    fs::path write(const std::string& name, const std::string& text) {
+        const fs::path p = dir_ / name;
+        std::ofstream(p) << text;
+        return p;
+    }
+
+    RunResult run(const std::string& args) {
+        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+        const std::string cmd =
+            std::string(FOGMAP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
+        const int status = std::system(cmd.c_str());
+        RunResult r;
+        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.out = slurp(out);
+        r.err = slurp(err);
+        return r;
+    }
+
+    // A small valid scene; `extra` is spliced into the top-level object.
+    std::string scene(const std::string& extra = "") {
+        return R"({
+  "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
+  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
+  "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
+  "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10], "edge_v": [10, 0, 0],
+              "material": "ground"}],
+  "render": {"spp": 2})" +
+               extra + "\n}\n";
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(Cli, MalformedJsonReportsLineAndColumn) {
+    const fs::path p = write("bad.json", "{\n  \"camera\": {\n    \"fov_deg\": 40,,\n  }\n}\n");
+    const RunResult r = run("render -q " + p.string() + " -o " + (dir_ / "x.exr").string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("fogmap: error: " + p.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("line 3"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("column"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, UnknownKeyListsTheKnownKeys) {
+    const fs::path p = write("s.json", scene(R"(, "rendr": {})"));
+    const RunResult r = run("render -q " + p.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("rendr"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("camera"), std::string::npos) << r.err;  // listed among the known keys
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one message: " << r.err;
+}
+
+TEST_F(Cli, NegativeCoefficientNamesTheField) {
+    const fs::path p = write("s.json", scene(R"(, "media": [{"type": "homogeneous",
+        "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]}, "sigma_s": [1, -2, 1]}])"));
+    const RunResult r = run("render -q " + p.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("/media/0/sigma_s"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, ZeroResolutionIsRejected) {
+    const fs::path p = write("s.json", scene());
+    const RunResult r = run("render -q " + p.string() + " --set camera.width=0");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("/camera/width"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, OverridesGoThroughValidation) {
+    const fs::path p = write("s.json", scene());
+    RunResult r = run("render -q " + p.string() + " --set render.spp=0");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("/render/spp"), std::string::npos) << r.err;
+    r = run("render -q " + p.string() + " --set render.spp=\\\"many\\\"");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("/render/spp"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MissingVdbFileNamesTheFile) {
+    const fs::path p =
+        write("s.json", scene(R"(, "media": [{"type": "vdb", "file": "nope.vdb"}])"));
+    const RunResult r = run("render -q " + p.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("nope.vdb"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, MissingGridListsTheGridsOfTheFile) {
+    const std::string vdb = std::string(FOGMAP_SHARED_VOLUMES) + "/usd_densityAndHeat.vdb";
+    if (!fs::exists(vdb)) GTEST_SKIP() << "shared volumes not found";
+    const fs::path p = write("s.json", scene(R"(, "media": [{"type": "vdb", "file": ")" + vdb +
+                                             R"(", "grid": "smoke"}])"));
+    const RunResult r = run("render -q " + p.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("smoke"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("density"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("heat"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, NonFloatGridIsRejectedWithItsType) {
+    openvdb::initialize();
+    auto grid = openvdb::Vec3SGrid::create();
+    grid->setName("density");
+    grid->tree().setValue(openvdb::Coord(1, 2, 3), openvdb::Vec3s(1.0f));
+    const fs::path vdb = dir_ / "vel.vdb";
+    openvdb::io::File(vdb.string()).write({grid});
+    const fs::path p = write("s.json", scene(R"(, "media": [{"type": "vdb", "file": "vel.vdb"}])"));
+    const RunResult r = run("render -q " + p.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("vec3s"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, FailedRunLeavesTheOldOutputUntouched) {
+    const fs::path exr = dir_ / "keep.exr", png = dir_ / "keep.png";
+    std::ofstream(exr) << "old exr";
+    std::ofstream(png) << "old png";
+    const fs::path p = write("s.json", scene(R"(, "bogus": 1)"));
+    const RunResult r = run("render -q " + p.string() + " -o " + exr.string());
+    EXPECT_EQ(r.code, 2);
+    EXPECT_EQ(slurp(exr), "old exr");
+    EXPECT_EQ(slurp(png), "old png");
+}
+
+TEST_F(Cli, RenderWritesExrAndPngAndAJsonReport) {
+    const fs::path p = write("s.json", scene());
+    const fs::path exr = dir_ / "sub" / "img.exr";
+    const RunResult r = run("render -q --json " + p.string() + " -o " + exr.string());
+    ASSERT_EQ(r.code, 0) << r.err;
+    const Image img = read_exr(exr.string());
+    EXPECT_EQ(img.width, 8);
+    EXPECT_EQ(img.height, 6);
+    EXPECT_TRUE(fs::exists(dir_ / "sub" / "img.png"));
+    for (const auto& e : fs::directory_iterator(dir_ / "sub"))
+        EXPECT_EQ(e.path().string().find(".tmp-"), std::string::npos) << e.path();
+    EXPECT_NE(r.out.find("\"time_s\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"rays_per_s\""), std::string::npos) << r.out;
+    // The floor under the sun: albedo E cos θ / π on every pixel that sees it (bottom row).
+    const float cos_theta = 1.0f / std::sqrt(0.09f + 1.0f + 0.04f);
+    EXPECT_NEAR(img.at(4, 5).x, 0.5f * 3.0f * cos_theta / 3.14159265f, 1e-4f);
+}
+
+TEST_F(Cli, InfoListsGridsOfTheDisneyCloud) {
+    const std::string vdb = std::string(FOGMAP_SHARED_VOLUMES) + "/wdas_cloud_sixteenth.vdb";
+    if (!fs::exists(vdb)) GTEST_SKIP() << "shared volumes not found";
+    const RunResult r = run("info " + vdb);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("density"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("415642"), std::string::npos) << r.out;  // SOURCES.md, incl. tiles
+}
+
+TEST_F(Cli, BadArgumentsExitWithTwo) {
+    EXPECT_EQ(run("render").code, 2);
+    EXPECT_EQ(run("frobnicate").code, 2);
+    EXPECT_EQ(run("info " + (dir_ / "missing.vdb").string()).code, 2);
+}
+
+}  // namespace
+}  // namespace fogmap

@@ -1,0 +1,34 @@
+#pragma once
+// The fogmap subcommands, one function each; main.cpp only parses arguments and maps errors to
+// exit codes (InputError → 2). Each returns the process exit code.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+
+struct RenderArgs {
+    std::string scene;                   ///< scene file
+    std::string output;                  ///< .exr path; "" = out/<scene stem>.exr
+    std::string png;                     ///< .png path; "" = beside the EXR
+    std::vector<std::string> overrides;  ///< "key.path=value"
+    float exposure = 0.0f;               ///< PNG preview exposure, stops
+    bool quiet = false;
+    bool json = false;
+};
+
+int run_render(const RenderArgs& args);
+int run_info(const std::string& vdb_path, bool json);
+
+struct VolumeArgs {
+    std::string shape;   ///< "cloud" or "plume"
+    std::string output;  ///< .vdb path
+    int resolution = 64;
+    float voxel_size = 0.05f;
+    uint64_t seed = 1;
+};
+
+int run_volume(const VolumeArgs& args);
+
+}  // namespace fogmap

@@ -1,0 +1,94 @@
+#pragma once
+// Participating media: σ_s(x) = density(x)·sigma_s, σ_a(x) = density(x)·sigma_a (DESIGN.md, Media),
+// homogeneous (density 1 inside a world box) or heterogeneous (a DensityGrid under the grid's own
+// transform times the scene transform). Free paths are found by weighted delta tracking against
+// piecewise-constant majorants (one per majorant cell, walked by a 3D DDA; empty cells are skipped)
+// and transmittance by ratio tracking. Several media superpose: their majorant processes are
+// walked side by side and the nearest tentative collision is processed (Poisson superposition).
+// Rays must have unit world-space direction; t is world distance.
+// Thread-safety: a Medium is immutable and shared const; Medium::Sampler is per thread.
+
+#include "core/math.h"
+#include "core/rng.h"
+#include "media/density_grid.h"
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace fogmap {
+
+struct MediumParams {
+    Color sigma_s{1.0f};  ///< per unit density, 1/world unit (density_scale already applied)
+    Color sigma_a{0.0f};  ///< per unit density, 1/world unit
+    float g = 0.0f;       ///< Henyey–Greenstein asymmetry
+};
+
+class Medium {
+public:
+    /// Density 1 inside `bounds_world` (world units), 0 outside.
+    static Medium homogeneous(const MediumParams& params, const Box3& bounds_world);
+    /// Density from `grid` (shared), placed by scene_transform * grid.index_to_world().
+    static Medium heterogeneous(const MediumParams& params, std::shared_ptr<const DensityGrid> grid,
+                                const Mat4& scene_transform);
+
+    const MediumParams& params() const { return params_; }
+    Color sigma_t() const { return params_.sigma_s + params_.sigma_a; }
+    /// World-space box outside which the density is 0.
+    const Box3& world_bounds() const { return world_bounds_; }
+    const DensityGrid* grid() const { return grid_.get(); }
+
+    /// Per-thread access: density lookups and majorant walks. Not thread-safe; one per thread.
+    class Sampler {
+    public:
+        explicit Sampler(const Medium& medium);
+        const Medium& medium() const { return *medium_; }
+        /// Density at a world point (0 outside the medium).
+        float density(const Vec3& p_world);
+        /// Starts a walk of tentative collisions of the majorant process along the ray on
+        /// [t0, t1]. Returns false if the medium is not met there.
+        bool begin_walk(const Ray& ray, float t0, float t1);
+        /// Next tentative collision: *t (world distance) and *sigma_maj (majorant of σ_t at
+        /// *t, 1/world unit). False when the walk passes t1.
+        bool next_tentative(Rng& rng, float* t, float* sigma_maj);
+
+    private:
+        bool next_segment();
+        const Medium* medium_;
+        std::optional<DensityGrid::Sampler> grid_sampler_;
+        // walk state (index space for grids; t shared with world space)
+        float t_end_ = 0.0f, seg_t0_ = 0.0f, seg_t1_ = 0.0f, seg_maj_ = 0.0f;
+        int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
+        float t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
+        bool walking_ = false;
+    };
+
+private:
+    Medium() = default;
+    MediumParams params_;
+    float sigma_t_max_ = 0.0f;  ///< max channel of sigma_t()
+    Box3 world_bounds_;
+    std::shared_ptr<const DensityGrid> grid_;
+    Mat4 world_to_index_{1.0f};
+    Mat4 index_to_world_{1.0f};
+};
+
+enum class TrackEvent { Escaped, Scattered, Absorbed };
+
+struct TrackResult {
+    TrackEvent event = TrackEvent::Escaped;
+    float t = 0.0f;   ///< distance of the scattering event
+    int medium = -1;  ///< which medium scattered
+};
+
+/// Weighted delta tracking through all media on (0, t_max) of a unit-direction ray. Multiplies
+/// *beta by the null/scatter weights (exactly 1 for grey media). Unbiased for any majorant that
+/// bounds σ_t; t_max may be infinite.
+TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
+                        Color* beta);
+
+/// Ratio-tracking estimate of the transmittance exp(-∫σ_t) on (0, t_max), per channel, with
+/// Russian roulette once it falls below 0.1 (unbiased, bounded work).
+Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng);
+
+}  // namespace fogmap

@@ -1,0 +1,55 @@
+#pragma once
+// Reference integrator (DESIGN.md, Media): an unbiased volumetric path tracer. Weighted delta
+// tracking finds scattering events in media; next-event estimation to every light
+// uses ratio-tracked transmittance; area, sun-disc and environment lights are combined with
+// phase/BSDF sampling by multiple importance sampling (power heuristic); Russian roulette once the
+// throughput falls below 1; max_depth caps the number of scattering/bounce vertices.
+// Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
+
+#include "core/image.h"
+#include "core/rng.h"
+#include "scene/scene.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace fogmap {
+
+struct RenderStats {
+    double render_s = 0.0;   ///< wall time of the render pass
+    uint64_t samples = 0;    ///< camera samples traced
+    uint64_t rays = 0;       ///< Embree queries (closest hit + occlusion)
+    uint64_t nonfinite = 0;  ///< samples dropped because they were NaN or infinite
+    int threads = 0;         ///< worker threads used
+};
+
+class PathTracer {
+public:
+    PathTracer(const Scene& scene, int max_depth);
+
+    /// Per-thread mutable state: medium samplers and counters. One per task.
+    struct ThreadState {
+        std::vector<Medium::Sampler> media;
+        uint64_t rays = 0;
+    };
+    ThreadState make_state() const;
+
+    /// Radiance arriving along -ray.d at ray.o (unit direction), one sample.
+    Color radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
+
+private:
+    struct Lobe;
+    Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
+    Vec3 offset(const Vec3& p, const Vec3& n) const;
+
+    const Scene& scene_;
+    int max_depth_;
+    float offset_floor_;
+};
+
+/// Renders scene.desc.camera with the path tracer using settings.spp samples per pixel.
+/// threads = 0 uses every core. Progress on stderr unless quiet.
+Image render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
+                  RenderStats* stats);
+
+}  // namespace fogmap

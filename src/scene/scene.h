@@ -1,0 +1,30 @@
+#pragma once
+// Scene: the loaded resources of a validated SceneDesc — lights, materials, the Embree scene (only
+// when there are surfaces), media with their VDB grids, and the world bounds. Immutable after
+// load_scene; shared const by all render threads.
+
+#include "media/medium.h"
+#include "scene/light.h"
+#include "scene/scene_desc.h"
+#include "surface/embree_scene.h"
+#include "surface/material.h"
+
+#include <memory>
+#include <vector>
+
+namespace fogmap {
+
+struct Scene {
+    SceneDesc desc;
+    std::vector<Light> lights;
+    std::vector<Material> materials;
+    std::unique_ptr<EmbreeScene> surfaces;  ///< null when the scene has no surfaces
+    std::vector<Medium> media;
+    Box3 bounds;  ///< surfaces, media, camera and point/spot light positions
+};
+
+/// Opens mesh and VDB files and builds Embree. A homogeneous medium without "bounds" fills the
+/// bounds of the rest of the scene. Throws InputError{desc.path or the data file, field, reason}.
+std::unique_ptr<Scene> load_scene(const SceneDesc& desc);
+
+}  // namespace fogmap
