@@ -12,6 +12,7 @@ struct RenderArgs {
     std::string scene;                   ///< scene file
     std::string output;                  ///< .exr path; "" = out/<scene stem>.exr
     std::string png;                     ///< .png path; "" = beside the EXR
+    std::string reference;               ///< .exr to compare with; "" = none
     std::vector<std::string> overrides;  ///< "key.path=value"
     float exposure = 0.0f;               ///< PNG preview exposure, stops
     bool quiet = false;

@@ -26,6 +26,7 @@ int main(int argc, char** argv) {
     r->add_option("--threads", threads, "worker threads, 0 = all (= --set render.threads=N)");
     r->add_option("--seed", seed, "random seed (= --set render.seed=N)");
     r->add_option("--max-depth", max_depth, "max scattering vertices (= --set render.max_depth=N)");
+    r->add_option("--reference", render.reference, "reference .exr: report RMSE, relMSE, bias");
     r->add_option("--exposure", render.exposure, "PNG exposure in stops");
     r->add_flag("-q,--quiet", render.quiet, "no progress bar");
     r->add_flag("--json", render.json, "print the report as JSON on stdout");

@@ -99,6 +99,14 @@ inline Vec3 to_world(const Vec3& local, const Vec3& n) {
     return local.x * t + local.y * b + local.z * n;
 }
 
+/// Ray origin moved off a surface at p along unit n (towards the side the ray leaves on): by
+/// 2e-5 of the point's largest coordinate, at least `floor` (scene-relative), so rays neither
+/// re-hit their own surface nor tunnel through thin geometry.
+inline Vec3 offset_point(const Vec3& p, const Vec3& n, float floor) {
+    const float scale = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
+    return p + std::max(floor, 2e-5f * scale) * n;
+}
+
 /// Transform a point / a direction by an affine 4x4 matrix.
 inline Vec3 transform_point(const Mat4& m, const Vec3& p) { return Vec3(m * glm::vec4(p, 1.0f)); }
 inline Vec3 transform_vector(const Mat4& m, const Vec3& v) { return Vec3(m * glm::vec4(v, 0.0f)); }

@@ -4,14 +4,13 @@
 
 #include <glm/gtc/matrix_inverse.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
 namespace fogmap {
 
 namespace {
-
-constexpr int kMaxMedia = 16;  // validate() keeps scenes within this
 
 Mat4 to_float(const DMat4& m) { return Mat4(m); }
 
@@ -45,6 +44,9 @@ Medium Medium::heterogeneous(const MediumParams& params, std::shared_ptr<const D
     m.sigma_t_max_ = max_component(m.sigma_t());
     m.index_to_world_ = scene_transform * to_float(grid->index_to_world());
     m.world_to_index_ = glm::inverse(m.index_to_world_);
+    m.voxel_world_ =
+        std::min({glm::length(Vec3(m.index_to_world_[0])), glm::length(Vec3(m.index_to_world_[1])),
+                  glm::length(Vec3(m.index_to_world_[2]))});
     if (!grid->empty()) m.world_bounds_ = transform_box(m.index_to_world_, grid->index_bounds());
     m.grid_ = std::move(grid);
     return m;

@@ -18,6 +18,9 @@
 
 namespace fogmap {
 
+/// Most media one scene may hold (scene loading rejects more).
+constexpr int kMaxMedia = 16;
+
 struct MediumParams {
     Color sigma_s{1.0f};  ///< per unit density, 1/world unit (density_scale already applied)
     Color sigma_a{0.0f};  ///< per unit density, 1/world unit
@@ -37,6 +40,8 @@ public:
     /// World-space box outside which the density is 0.
     const Box3& world_bounds() const { return world_bounds_; }
     const DensityGrid* grid() const { return grid_.get(); }
+    /// Smallest world-space voxel edge of a grid medium; 0 for a homogeneous one.
+    float voxel_world() const { return voxel_world_; }
 
     /// Per-thread access: density lookups and majorant walks. Not thread-safe; one per thread.
     class Sampler {
@@ -71,6 +76,7 @@ private:
     std::shared_ptr<const DensityGrid> grid_;
     Mat4 world_to_index_{1.0f};
     Mat4 index_to_world_{1.0f};
+    float voxel_world_ = 0.0f;
 };
 
 enum class TrackEvent { Escaped, Scattered, Absorbed };

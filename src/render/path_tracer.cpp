@@ -58,8 +58,7 @@ PathTracer::ThreadState PathTracer::make_state() const {
 }
 
 Vec3 PathTracer::offset(const Vec3& p, const Vec3& n) const {
-    const float scale = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
-    return p + std::max(offset_floor_, 2e-5f * scale) * n;
+    return offset_point(p, n, offset_floor_);
 }
 
 Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const {

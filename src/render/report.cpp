@@ -21,6 +21,14 @@ std::string report_text(const Report& r) {
     std::ostringstream out;
     out << "scene: " << r.scene << "\n";
     out << "settings: " << r.settings.dump() << "\n";
+    out << r.plan_text;
+    for (const MapReport& m : r.maps) {
+        out << m.name << " map: " << m.stored << " photons (" << m.emitted << " emitted), "
+            << m.bytes << " bytes, "
+            << fixed(m.stored > 0 ? double(m.bytes) / double(m.stored) : 0.0, 1)
+            << " bytes/photon, tree built in " << fixed(m.build_s, 3) << " s\n";
+    }
+    if (r.photons_emitted > 0) out << "photons emitted: " << r.photons_emitted << "\n";
     out << "image: " << r.width << " x " << r.height << ", " << r.spp << " spp, " << r.threads
         << " threads\n";
     double total = 0.0;
@@ -34,6 +42,10 @@ std::string report_text(const Report& r) {
     out << "rays: " << r.rays << " (" << fixed(per_second(r.rays, r.render_s), 0)
         << " per second)\n";
     out << "non-finite samples dropped: " << r.nonfinite << "\n";
+    out << "image mean: " << r.mean << "\n";
+    if (!r.reference.empty())
+        out << "error vs " << r.reference << ": rmse " << r.rmse << ", relmse " << r.rel_mse
+            << ", bias " << r.bias << "\n";
     for (const std::string& f : r.outputs) out << "wrote: " << f << "\n";
     return out.str();
 }
@@ -46,6 +58,13 @@ nlohmann::json report_json(const Report& r) {
         total += s;
     }
     phases["total"] = total;
+    nlohmann::json maps = nlohmann::json::object();
+    for (const MapReport& m : r.maps)
+        maps[m.name] = {{"stored", m.stored},
+                        {"emitted", m.emitted},
+                        {"bytes", m.bytes},
+                        {"bytes_per_photon", m.stored > 0 ? double(m.bytes) / m.stored : 0.0},
+                        {"build_s", m.build_s}};
     return {{"scene", r.scene},
             {"settings", r.settings},
             {"width", r.width},
@@ -58,7 +77,16 @@ nlohmann::json report_json(const Report& r) {
             {"rays", r.rays},
             {"rays_per_s", per_second(r.rays, r.render_s)},
             {"nonfinite_samples", r.nonfinite},
-            {"outputs", r.outputs}};
+            {"outputs", r.outputs},
+            {"plan", r.plan},
+            {"photons_emitted", r.photons_emitted},
+            {"maps", maps},
+            {"mean", r.mean},
+            {"reference", r.reference.empty() ? nlohmann::json()
+                                              : nlohmann::json{{"file", r.reference},
+                                                               {"rmse", r.rmse},
+                                                               {"rel_mse", r.rel_mse},
+                                                               {"bias", r.bias}}}};
 }
 
 }  // namespace fogmap

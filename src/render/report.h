@@ -11,6 +11,15 @@
 
 namespace fogmap {
 
+/// One photon map's figures.
+struct MapReport {
+    std::string name;      ///< "global", "caustic", "volume"
+    uint64_t stored = 0;   ///< photons in the map
+    uint64_t emitted = 0;  ///< photons emitted when it filled
+    uint64_t bytes = 0;    ///< records + tree
+    double build_s = 0.0;  ///< kd-tree build wall time
+};
+
 struct Report {
     std::string scene;                                     ///< scene file
     nlohmann::json settings;                               ///< effective render settings
@@ -19,6 +28,13 @@ struct Report {
     uint64_t samples = 0, rays = 0, nonfinite = 0;
     double render_s = 0.0;
     std::vector<std::string> outputs;  ///< files written
+    std::string plan_text;             ///< make_plan's five lines
+    nlohmann::json plan;               ///< the same as JSON
+    std::vector<MapReport> maps;       ///< photon maps built
+    uint64_t photons_emitted = 0;
+    double mean = 0.0;      ///< mean of the beauty image over pixels and channels
+    std::string reference;  ///< reference image, "" = none
+    double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference
 };
 
 /// Human-readable multi-line report.

@@ -135,4 +135,95 @@ Color quad_radiance(const Light& l, const Vec3& d) {
     return glm::dot(d, l.normal) < 0.0f ? l.radiance : Color(0.0f);
 }
 
+namespace {
+
+// Spot falloff integrated over the sphere: 2π ∫ falloff(μ) dμ on [cos_outer, 1] (midpoint rule,
+// 512 panels; the falloff is a smoothstep, so this is accurate to ~1e-6).
+float spot_solid_angle(const Light& l) {
+    const int n = 512;
+    const double a = l.cos_outer, h = (1.0 - a) / n;
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i)
+        sum += smoothstep(l.cos_outer, l.cos_inner, static_cast<float>(a + (i + 0.5) * h));
+    return static_cast<float>(2.0 * 3.14159265358979323846 * sum * h);
+}
+
+float bounding_radius(const Box3& b) { return 0.5f * glm::length(b.extent()); }
+
+// A point on the disc of radius r perpendicular to unit d, centred on c, pushed back along −d to
+// just outside the bounding sphere.
+Vec3 disc_origin(const Vec3& c, float r, const Vec3& d, Vec2 u) {
+    const float rad = r * std::sqrt(u.x), phi = kTwoPi * u.y;
+    return c + to_world(Vec3(rad * std::cos(phi), rad * std::sin(phi), 0.0f), d) - 1.01f * r * d;
+}
+
+}  // namespace
+
+Color light_power(const Light& l, const Box3& bounds) {
+    switch (l.type) {
+        case LightType::Point:
+            return 4.0f * kPi * l.intensity;
+        case LightType::Spot:
+            return spot_solid_angle(l) * l.intensity;
+        case LightType::Quad:
+            return kPi * l.area * l.radiance;
+        case LightType::Sun: {
+            if (bounds.empty()) return Color(0.0f);
+            const float r = bounding_radius(bounds);
+            return kPi * r * r * l.irradiance;
+        }
+        case LightType::Environment: {
+            if (bounds.empty()) return Color(0.0f);
+            const float r = bounding_radius(bounds);
+            return 4.0f * kPi * kPi * r * r * l.radiance;
+        }
+    }
+    return Color(0.0f);
+}
+
+bool sample_photon(const Light& l, const Box3& bounds, Rng& rng, Ray* ray) {
+    const Vec2 u(rng.uniform(), rng.uniform());
+    switch (l.type) {
+        case LightType::Point:
+            *ray = Ray{l.position, sample_uniform_sphere(u)};
+            return true;
+        case LightType::Spot:
+            // Uniform in the cone, accepted with probability falloff ≤ 1: photons keep equal power.
+            for (int attempt = 0; attempt < 64; ++attempt) {
+                const float cos_t = 1.0f - rng.uniform() * (1.0f - l.cos_outer);
+                const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
+                const float phi = kTwoPi * rng.uniform();
+                if (rng.uniform() >= smoothstep(l.cos_outer, l.cos_inner, cos_t)) continue;
+                const Vec3 d = to_world(Vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t),
+                                        l.direction);
+                *ray = Ray{l.position, glm::normalize(d)};
+                return true;
+            }
+            return false;
+        case LightType::Quad: {
+            const Vec3 p = l.corner + u.x * l.edge_u + u.y * l.edge_v;
+            const Vec2 v(rng.uniform(), rng.uniform());
+            *ray = Ray{p, sample_cosine_hemisphere(l.normal, v)};
+            return true;
+        }
+        case LightType::Sun:
+        case LightType::Environment: {
+            if (bounds.empty()) return false;
+            Vec3 d;
+            if (l.type == LightType::Environment) {
+                d = sample_uniform_sphere(u);
+            } else if (l.sun_one_minus_cos > 0.0f) {
+                const LightSample s = sample_light(l, Vec3(0.0f), u);
+                d = -s.wi;
+            } else {
+                d = l.direction;
+            }
+            const Vec2 v(rng.uniform(), rng.uniform());
+            *ray = Ray{disc_origin(bounds.center(), bounding_radius(bounds), d, v), d};
+            return true;
+        }
+    }
+    return false;
+}
+
 }  // namespace fogmap

@@ -6,6 +6,7 @@
 // delta = true and pdf 1. Plain data, thread-safe.
 
 #include "core/math.h"
+#include "core/rng.h"
 #include "scene/scene_desc.h"
 
 namespace fogmap {
@@ -51,5 +52,15 @@ Color escaped_radiance(const Light& light, const Vec3& d);
 
 /// Radiance a quad light sends back along a ray with direction d that hit it (front side only).
 Color quad_radiance(const Light& light, const Vec3& d);
+
+/// Emitted power (W per channel). Sun and environment count what crosses the bounding sphere of
+/// `scene_bounds` (projection onto the scene, as Jensen's projection maps): E·πR² and 4π²R²·L.
+Color light_power(const Light& light, const Box3& scene_bounds);
+
+/// A photon leaving `light`: a ray (unit direction) towards the scene. Sun and environment
+/// photons start on a disc of the bounding sphere's radius perpendicular to their direction,
+/// outside the sphere. Spot photons follow the falloff by rejection. False if no photon could
+/// be drawn (empty bounds, or the rejection gave up).
+bool sample_photon(const Light& light, const Box3& scene_bounds, Rng& rng, Ray* ray);
 
 }  // namespace fogmap

@@ -9,8 +9,6 @@ namespace fogmap {
 
 namespace {
 
-constexpr size_t kMaxMedia = 16;
-
 std::string resolve(const SceneDesc& desc, const std::string& file) {
     const std::filesystem::path p(file);
     if (p.is_absolute() || desc.base_dir.empty()) return file;
@@ -83,7 +81,7 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         scene->bounds.extend(scene->surfaces->bounds());
     }
 
-    if (desc.media.size() > kMaxMedia)
+    if (desc.media.size() > static_cast<size_t>(kMaxMedia))
         throw InputError(
             desc.path, "/media",
             "found " + std::to_string(desc.media.size()) + " media; at most 16 are supported");

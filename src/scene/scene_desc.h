@@ -4,6 +4,7 @@
 // scene_desc_json.h, range and cross-field checks in validate(). No third-party types here.
 
 #include "core/math.h"
+#include "media/march_settings.h"
 
 #include <cstdint>
 #include <map>
@@ -84,14 +85,48 @@ struct MediumDesc {
         bounds;  ///< homogeneous: box ("bounds": {"min","max"}); absent = whole scene
 };
 
-enum class Integrator { Path };
+enum class Integrator { Path, Photon };
 
 struct RenderSettings {
-    Integrator integrator = Integrator::Path;
+    Integrator integrator = Integrator::Photon;
     int spp = 16;        ///< samples per pixel, >= 1
     int max_depth = 64;  ///< scattering/bounce vertices per path, >= 1 (1 = direct light only)
     uint64_t seed = 1;   ///< results are a function of the seed alone
     int threads = 0;     ///< 0 = all cores
+};
+
+/// Photon budgets (DESIGN.md, Photons): photons *stored* per map; shooting goes on until every
+/// map with a budget is full or max_emitted photons have left the lights. 0 = map not built.
+struct PhotonSettings {
+    uint64_t global = 100000;  ///< diffuse hits after at least one bounce
+    uint64_t caustic = 50000;  ///< L S+ D paths
+    uint64_t volume = 100000;  ///< scattering events in media after at least one interaction
+    uint64_t max_emitted = 0;  ///< cap on emitted photons; 0 = 100 x the largest budget
+    int max_bounces = 64;      ///< interactions per photon path, >= 1
+};
+
+/// Surface global map: disc estimate, shown directly or through final gathering.
+struct GlobalGatherSettings {
+    int k = 100;                ///< photons per estimate, >= 1
+    float radius = 0.0f;        ///< max radius, world units; 0 = 2% of the scene diagonal
+    bool final_gather = false;  ///< gather rays at camera hits instead of showing the map
+    int gather_rays = 32;       ///< rays per final gather, >= 1
+};
+
+/// Surface caustic map: disc estimate with optional cone filter (Jensen, k_f >= 1; 0 = off).
+struct CausticGatherSettings {
+    int k = 50;
+    float radius = 0.0f;       ///< max radius, world units; 0 = 1% of the scene diagonal
+    float cone_filter = 0.0f;  ///< Jensen's k_f; 0 = box filter
+};
+
+enum class VolumeEstimator { Sphere };
+
+/// Volume map: spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates).
+struct VolumeGatherSettings {
+    int k = 50;
+    float radius = 0.0f;  ///< max radius, world units; 0 = 5% of the media diagonal
+    VolumeEstimator estimator = VolumeEstimator::Sphere;
 };
 
 struct SceneDesc {
@@ -103,6 +138,11 @@ struct SceneDesc {
     std::vector<ShapeDesc> shapes;
     std::vector<MediumDesc> media;
     RenderSettings render;
+    PhotonSettings photons;
+    GlobalGatherSettings global;
+    CausticGatherSettings caustic;
+    VolumeGatherSettings volume;
+    MarchSettings march;
 };
 
 /// String tables shared by the parser, its error messages and the report.
@@ -111,6 +151,8 @@ const char* to_string(MaterialType t);
 const char* to_string(ShapeType t);
 const char* to_string(MediumType t);
 const char* to_string(Integrator t);
+const char* to_string(VolumeEstimator t);
+const char* to_string(FreePathMethod t);
 
 /// Range and cross-field checks (materials referenced by shapes exist, coefficients finite and
 /// >= 0, g in (-1, 1), resolution >= 1, ...). Throws InputError{desc.path, json pointer, reason}.

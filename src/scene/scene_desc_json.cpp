@@ -28,12 +28,15 @@ constexpr std::array<MaterialType, 3> kMaterialTypes{MaterialType::Diffuse, Mate
 constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, ShapeType::Sphere,
                                                ShapeType::Mesh};
 constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
-constexpr std::array<Integrator, 1> kIntegrators{Integrator::Path};
+constexpr std::array<Integrator, 2> kIntegrators{Integrator::Path, Integrator::Photon};
+constexpr std::array<VolumeEstimator, 1> kVolumeEstimators{VolumeEstimator::Sphere};
+constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
+                                                         FreePathMethod::Delta};
 
 // ---- Field lists -------------------------------------------------------------------------------
 // One list per struct (and per type), walked by both the reader and the writer, so the keys a
 // type accepts and the keys to_json writes cannot drift apart. The `type` key is handled by the
-// callers because it selects the list.
+// callers because it selects the list; other enums go through `choice` with their string table.
 
 template <class C, class V>
 void camera_fields(C& c, V& v) {
@@ -133,10 +136,49 @@ void medium_fields(M& m, V& v) {
 
 template <class R, class V>
 void render_fields(R& r, V& v) {
+    v.choice("integrator", r.integrator, kIntegrators, "integrator");
     v.value("spp", r.spp);
     v.value("max_depth", r.max_depth);
     v.value("seed", r.seed);
     v.value("threads", r.threads);
+}
+
+template <class P, class V>
+void photon_fields(P& p, V& v) {
+    v.value("global", p.global);
+    v.value("caustic", p.caustic);
+    v.value("volume", p.volume);
+    v.value("max_emitted", p.max_emitted);
+    v.value("max_bounces", p.max_bounces);
+}
+
+template <class G, class V>
+void global_fields(G& g, V& v) {
+    v.value("k", g.k);
+    v.value("radius", g.radius);
+    v.value("final_gather", g.final_gather);
+    v.value("gather_rays", g.gather_rays);
+}
+
+template <class C, class V>
+void caustic_fields(C& c, V& v) {
+    v.value("k", c.k);
+    v.value("radius", c.radius);
+    v.value("cone_filter", c.cone_filter);
+}
+
+template <class G, class V>
+void volume_fields(G& g, V& v) {
+    v.value("k", g.k);
+    v.value("radius", g.radius);
+    v.choice("estimator", g.estimator, kVolumeEstimators, "volume estimator");
+}
+
+template <class M, class V>
+void march_fields(M& m, V& v) {
+    v.choice("method", m.method, kFreePathMethods, "free path method");
+    v.value("step_voxels", m.step_voxels);
+    v.value("step_world", m.step_world);
 }
 
 // ---- Reading -----------------------------------------------------------------------------------
@@ -195,6 +237,10 @@ struct FieldReader {
     void value(const char* key, T& x) {
         r.read(key, &x);
     }
+    template <class E, size_t N>
+    void choice(const char* key, E& x, const std::array<E, N>& values, const char* what) {
+        r.read_enum(key, values, what, &x);
+    }
     void transform(const char* key, TransformDesc& t) {
         if (const json* v = r.find(key)) t.matrix = read_transform(*v, r.file(), r.pointer(key));
     }
@@ -225,6 +271,17 @@ std::vector<T> read_array(JsonReader& top, const char* key, F read_one) {
         r.finish();
     }
     return out;
+}
+
+/// Reads an object member through its field list; absent = defaults kept.
+template <class T, class F>
+void read_object(JsonReader& top, const char* key, T& x, F fields) {
+    const json* v = top.find(key);
+    if (!v) return;
+    JsonReader r(*v, top.file(), top.pointer(key));
+    FieldReader f{r};
+    fields(x, f);
+    r.finish();
 }
 
 // ---- Writing -----------------------------------------------------------------------------------
@@ -259,11 +316,23 @@ struct FieldWriter {
     void value(const char* key, const T& x) {
         j[key] = x;
     }
+    template <class E, size_t N>
+    void choice(const char* key, E x, const std::array<E, N>&, const char*) {
+        j[key] = to_string(x);
+    }
     void transform(const char* key, const TransformDesc& t) { j[key] = transform_json(t); }
     void bounds(const char* key, const std::optional<Box3>& b) {
         if (b) j[key] = json{{"min", vec_json(b->lo)}, {"max", vec_json(b->hi)}};
     }
 };
+
+template <class T, class F>
+json write_object(const T& x, F fields) {
+    json j = json::object();
+    FieldWriter w{j};
+    fields(x, w);
+    return j;
+}
 
 template <class T, class F>
 json write_typed(const T& x, F fields) {
@@ -405,12 +474,7 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
     desc.base_dir = std::filesystem::path(file).parent_path().string();
     JsonReader top(doc, file, "");
 
-    if (const json* v = top.find("camera")) {
-        JsonReader r(*v, file, top.pointer("camera"));
-        FieldReader f{r};
-        camera_fields(desc.camera, f);
-        r.finish();
-    }
+    read_object(top, "camera", desc.camera, [](auto& x, auto& f) { camera_fields(x, f); });
     desc.lights = read_array<LightDesc>(top, "lights", [](JsonReader& r) {
         LightDesc l;
         r.read_enum("type", kLightTypes, "light type", &l.type, true);
@@ -448,31 +512,40 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
         medium_fields(m, f);
         return m;
     });
-    if (const json* v = top.find("render")) {
-        JsonReader r(*v, file, top.pointer("render"));
-        r.read_enum("integrator", kIntegrators, "integrator", &desc.render.integrator);
-        FieldReader f{r};
-        render_fields(desc.render, f);
-        r.finish();
-    }
+    read_object(top, "render", desc.render, [](auto& x, auto& f) { render_fields(x, f); });
+    read_object(top, "photons", desc.photons, [](auto& x, auto& f) { photon_fields(x, f); });
+    read_object(top, "global", desc.global, [](auto& x, auto& f) { global_fields(x, f); });
+    read_object(top, "caustic", desc.caustic, [](auto& x, auto& f) { caustic_fields(x, f); });
+    read_object(top, "volume", desc.volume, [](auto& x, auto& f) { volume_fields(x, f); });
+    read_object(top, "march", desc.march, [](auto& x, auto& f) { march_fields(x, f); });
     top.finish();
     return desc;
 }
 
 json to_json(const RenderSettings& render) {
+    return write_object(render, [](const auto& x, FieldWriter& f) { render_fields(x, f); });
+}
+
+json settings_json(const SceneDesc& desc) {
     json j = json::object();
-    j["integrator"] = to_string(render.integrator);
-    FieldWriter w{j};
-    render_fields(render, w);
+    j["render"] = to_json(desc.render);
+    j["photons"] =
+        write_object(desc.photons, [](const auto& x, FieldWriter& f) { photon_fields(x, f); });
+    j["global"] =
+        write_object(desc.global, [](const auto& x, FieldWriter& f) { global_fields(x, f); });
+    j["caustic"] =
+        write_object(desc.caustic, [](const auto& x, FieldWriter& f) { caustic_fields(x, f); });
+    j["volume"] =
+        write_object(desc.volume, [](const auto& x, FieldWriter& f) { volume_fields(x, f); });
+    j["march"] =
+        write_object(desc.march, [](const auto& x, FieldWriter& f) { march_fields(x, f); });
     return j;
 }
 
 json to_json(const SceneDesc& desc) {
-    json j = json::object();
-    json camera = json::object();
-    FieldWriter w{camera};
-    camera_fields(desc.camera, w);
-    j["camera"] = camera;
+    json j = settings_json(desc);
+    j["camera"] =
+        write_object(desc.camera, [](const auto& x, FieldWriter& f) { camera_fields(x, f); });
 
     j["lights"] = json::array();
     for (const auto& l : desc.lights) {
@@ -494,7 +567,6 @@ json to_json(const SceneDesc& desc) {
         j["media"].push_back(
             write_typed(m, [](const MediumDesc& x, FieldWriter& f) { medium_fields(x, f); }));
     }
-    j["render"] = to_json(desc.render);
     return j;
 }
 

@@ -26,8 +26,12 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
 /// becomes base_dir.
 SceneDesc scene_desc_from_json(const nlohmann::json& doc, const std::string& file);
 
-/// SceneDesc → JSON with every field (the effective settings printed by the report).
+/// SceneDesc → JSON with every field; scene_desc_from_json(to_json(d)) reads back d exactly.
 nlohmann::json to_json(const SceneDesc& desc);
+/// The render settings alone: {integrator, spp, max_depth, seed, threads}.
 nlohmann::json to_json(const RenderSettings& render);
+/// The effective non-scene settings printed by the report, every field written:
+/// {render, photons, global, caustic, volume, march}.
+nlohmann::json settings_json(const SceneDesc& desc);
 
 }  // namespace fogmap

@@ -63,6 +63,26 @@ const char* to_string(Integrator t) {
     switch (t) {
         case Integrator::Path:
             return "path";
+        case Integrator::Photon:
+            return "photon";
+    }
+    return "?";
+}
+
+const char* to_string(VolumeEstimator t) {
+    switch (t) {
+        case VolumeEstimator::Sphere:
+            return "sphere";
+    }
+    return "?";
+}
+
+const char* to_string(FreePathMethod t) {
+    switch (t) {
+        case FreePathMethod::March:
+            return "march";
+        case FreePathMethod::Delta:
+            return "delta";
     }
     return "?";
 }
@@ -71,6 +91,10 @@ namespace {
 
 constexpr int kMaxResolution = 16384;
 constexpr int kMaxDepthLimit = 100000;
+constexpr uint64_t kMaxPhotonBudget = 1000000000;  // 1e9 records x ~20 bytes = 20 GB per map
+constexpr int kMaxGatherK = 100000;
+constexpr int kMaxGatherRays = 4096;
+constexpr float kMaxStepVoxels = 1e6f;
 
 std::string num(double x) {
     char buf[32];
@@ -116,6 +140,12 @@ public:
         if (glm::length(v) == 0.0f) fail(key, key + " must be a non-zero vector; found " + vec(v));
     }
     void int_range(const std::string& key, int x, int lo, int hi) const {
+        if (x < lo || x > hi) {
+            fail(key, key + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                          "]; found " + std::to_string(x));
+        }
+    }
+    void uint_range(const std::string& key, uint64_t x, uint64_t lo, uint64_t hi) const {
         if (x < lo || x > hi) {
             fail(key, key + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
                           "]; found " + std::to_string(x));
@@ -310,6 +340,56 @@ void check_render(const SceneDesc& desc) {
     }
 }
 
+void check_photons(const SceneDesc& desc) {
+    const PhotonSettings& p = desc.photons;
+    const Checker k(desc, "/photons");
+    // Negative budgets never get here: the reader rejects them as "expected a non-negative
+    // integer". max_emitted has no upper bound: it is a cap, and 0 means automatic.
+    k.uint_range("global", p.global, 0, kMaxPhotonBudget);
+    k.uint_range("caustic", p.caustic, 0, kMaxPhotonBudget);
+    k.uint_range("volume", p.volume, 0, kMaxPhotonBudget);
+    k.int_range("max_bounces", p.max_bounces, 1, kMaxDepthLimit);
+}
+
+void check_gather(const SceneDesc& desc) {
+    {
+        const GlobalGatherSettings& g = desc.global;
+        const Checker k(desc, "/global");
+        k.int_range("k", g.k, 1, kMaxGatherK);
+        k.non_negative("radius", g.radius);
+        k.int_range("gather_rays", g.gather_rays, 1, kMaxGatherRays);
+    }
+    {
+        const CausticGatherSettings& c = desc.caustic;
+        const Checker k(desc, "/caustic");
+        k.int_range("k", c.k, 1, kMaxGatherK);
+        k.non_negative("radius", c.radius);
+        // Jensen's cone filter weight 1 - d/(k_f r) needs k_f >= 1 to stay non-negative.
+        if (!std::isfinite(c.cone_filter) || (c.cone_filter != 0.0f && c.cone_filter < 1.0f)) {
+            k.fail("cone_filter",
+                   "cone_filter must be 0 (box filter) or finite and >= 1 "
+                   "(Jensen's k_f); found " +
+                       num(c.cone_filter));
+        }
+    }
+    {
+        const VolumeGatherSettings& v = desc.volume;
+        const Checker k(desc, "/volume");
+        k.int_range("k", v.k, 1, kMaxGatherK);
+        k.non_negative("radius", v.radius);
+    }
+}
+
+void check_march(const SceneDesc& desc) {
+    const MarchSettings& m = desc.march;
+    const Checker k(desc, "/march");
+    if (!std::isfinite(m.step_voxels) || m.step_voxels <= 0.0f || m.step_voxels > kMaxStepVoxels) {
+        k.fail("step_voxels",
+               "step_voxels must be finite, > 0 and <= 1000000; found " + num(m.step_voxels));
+    }
+    k.non_negative("step_world", m.step_world);
+}
+
 }  // namespace
 
 void validate(const SceneDesc& desc) {
@@ -319,6 +399,9 @@ void validate(const SceneDesc& desc) {
     for (size_t i = 0; i < desc.shapes.size(); ++i) check_shape(desc, i);
     for (size_t i = 0; i < desc.media.size(); ++i) check_medium(desc, i);
     check_render(desc);
+    check_photons(desc);
+    check_gather(desc);
+    check_march(desc);
 }
 
 }  // namespace fogmap

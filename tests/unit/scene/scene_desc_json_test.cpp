@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <string>
 
 namespace fogmap {
@@ -91,7 +93,13 @@ json full_scene() {
          "density_scale": 0.5, "sigma_s": 0.1, "sigma_a": [0.01, 0.02, 0.03], "g": -0.3}
       ],
       "render": {"integrator": "path", "spp": 64, "max_depth": 12,
-                 "seed": 18446744073709551615, "threads": 3}
+                 "seed": 18446744073709551615, "threads": 3},
+      "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
+                  "max_bounces": 7},
+      "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
+      "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
+      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere"},
+      "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01}
     })");
 }
 
@@ -137,6 +145,25 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.render.spp, 64);
     EXPECT_EQ(d.render.seed, 18446744073709551615ull);
     EXPECT_EQ(d.render.threads, 3);
+    EXPECT_EQ(d.render.integrator, Integrator::Path);
+    EXPECT_EQ(d.photons.global, 2000u);
+    EXPECT_EQ(d.photons.caustic, 3000u);
+    EXPECT_EQ(d.photons.volume, 4000u);
+    EXPECT_EQ(d.photons.max_emitted, 900000u);
+    EXPECT_EQ(d.photons.max_bounces, 7);
+    EXPECT_EQ(d.global.k, 80);
+    EXPECT_EQ(d.global.radius, 0.125f);
+    EXPECT_TRUE(d.global.final_gather);
+    EXPECT_EQ(d.global.gather_rays, 16);
+    EXPECT_EQ(d.caustic.k, 40);
+    EXPECT_EQ(d.caustic.radius, 0.0625f);
+    EXPECT_EQ(d.caustic.cone_filter, 1.5f);
+    EXPECT_EQ(d.volume.k, 30);
+    EXPECT_EQ(d.volume.radius, 0.25f);
+    EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
+    EXPECT_EQ(d.march.method, FreePathMethod::Delta);
+    EXPECT_EQ(d.march.step_voxels, 0.5f);
+    EXPECT_EQ(d.march.step_world, 0.01f);
     EXPECT_NO_THROW(validate(d));
 }
 
@@ -174,7 +201,25 @@ TEST(SceneDescJson, FullSceneRoundTripsThroughToJson) {
         EXPECT_EQ(b.media[i].bounds.has_value(), a.media[i].bounds.has_value());
     }
     EXPECT_EQ(b.render.seed, a.render.seed);
+    EXPECT_EQ(b.render.integrator, a.render.integrator);
+    EXPECT_EQ(b.photons.volume, a.photons.volume);
+    EXPECT_EQ(b.photons.max_emitted, a.photons.max_emitted);
+    EXPECT_EQ(b.photons.max_bounces, a.photons.max_bounces);
+    EXPECT_EQ(b.global.final_gather, a.global.final_gather);
+    EXPECT_EQ(b.global.gather_rays, a.global.gather_rays);
+    EXPECT_EQ(b.caustic.cone_filter, a.caustic.cone_filter);
+    EXPECT_EQ(b.volume.k, a.volume.k);
+    EXPECT_EQ(b.volume.radius, a.volume.radius);
+    EXPECT_EQ(b.march.method, a.march.method);
+    EXPECT_EQ(b.march.step_world, a.march.step_world);
     EXPECT_EQ(to_json(b), j);
+    // Every key of the input is written back, with the same values.
+    EXPECT_EQ(j["photons"], full_scene()["photons"]);
+    EXPECT_EQ(j["global"], full_scene()["global"]);
+    EXPECT_EQ(j["caustic"], full_scene()["caustic"]);
+    EXPECT_EQ(j["volume"], full_scene()["volume"]);
+    EXPECT_EQ(j["march"], full_scene()["march"]);
+    EXPECT_EQ(j["render"], full_scene()["render"]);
     // Floats print as the shortest decimal that reads back the same: 0.27, not 0.27000001.
     EXPECT_EQ(j["lights"][3]["angular_radius_deg"].dump(), "0.27");
 }
@@ -198,8 +243,18 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     const InputError top = parse_error(json::parse(R"({"medias": []})"));
     EXPECT_EQ(top.field, "/medias");
     EXPECT_EQ(top.reason,
-              "unknown key 'medias'; known keys: camera, lights, materials, media, "
-              "render, shapes");
+              "unknown key 'medias'; known keys: camera, caustic, global, lights, march, "
+              "materials, media, photons, render, shapes, volume");
+
+    const InputError volume = parse_error(json::parse(R"({"volume": {"kk": 64}})"));
+    EXPECT_EQ(volume.field, "/volume/kk");
+    EXPECT_EQ(volume.reason, "unknown key 'kk'; known keys: estimator, k, radius");
+
+    const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
+    EXPECT_EQ(photons.field, "/photons/surface");
+    EXPECT_EQ(photons.reason,
+              "unknown key 'surface'; known keys: caustic, global, max_bounces, max_emitted, "
+              "volume");
 }
 
 TEST(SceneDescJson, FieldsOfAnotherTypeAreUnknownKeys) {
@@ -270,7 +325,64 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
 
     const InputError integrator = parse_error(json::parse(R"({"render": {"integrator": 1}})"));
     EXPECT_EQ(integrator.field, "/render/integrator");
-    EXPECT_EQ(integrator.reason, "expected one of: path (integrator), found number 1");
+    EXPECT_EQ(integrator.reason, "expected one of: path, photon (integrator), found number 1");
+
+    const InputError path = parse_error(json::parse(R"({"render": {"integrator": "bdpt"}})"));
+    EXPECT_EQ(path.field, "/render/integrator");
+    EXPECT_EQ(path.reason, "unknown integrator 'bdpt'; expected one of: path, photon");
+
+    const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "beam"}})"));
+    EXPECT_EQ(estimator.field, "/volume/estimator");
+    EXPECT_EQ(estimator.reason, "unknown volume estimator 'beam'; expected one of: sphere");
+
+    const InputError method = parse_error(json::parse(R"({"march": {"method": "ratio"}})"));
+    EXPECT_EQ(method.field, "/march/method");
+    EXPECT_EQ(method.reason, "unknown free path method 'ratio'; expected one of: march, delta");
+}
+
+TEST(SceneDescJson, NewSettingsDefaultToThePhotonIntegrator) {
+    const SceneDesc d = scene_desc_from_json(json::object(), "scene.json");
+    EXPECT_EQ(d.render.integrator, Integrator::Photon);
+    EXPECT_EQ(d.march.method, FreePathMethod::March);
+    EXPECT_NO_THROW(validate(d));
+    // Each enum value reads back from its own name.
+    const SceneDesc p = scene_desc_from_json(
+        json::parse(R"({"render": {"integrator": "photon"}, "march": {"method": "march"}})"),
+        "scene.json");
+    EXPECT_EQ(p.render.integrator, Integrator::Photon);
+    EXPECT_EQ(p.march.method, FreePathMethod::March);
+}
+
+TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
+    const SceneDesc d = scene_desc_from_json(full_scene(), "scene.json");
+    const json s = settings_json(d);
+    const json full = full_scene();
+    EXPECT_EQ(s, (json{{"render", full["render"]},
+                       {"photons", full["photons"]},
+                       {"global", full["global"]},
+                       {"caustic", full["caustic"]},
+                       {"volume", full["volume"]},
+                       {"march", full["march"]}}));
+
+    // Defaults are written too (the report shows what ran, not what the file said).
+    const json defaults = settings_json(SceneDesc{});
+    EXPECT_EQ(defaults["render"]["integrator"], "photon");
+    EXPECT_EQ(defaults["photons"]["volume"], 100000);
+    EXPECT_EQ(defaults["global"]["final_gather"], false);
+    EXPECT_EQ(defaults["caustic"]["cone_filter"], 0.0);
+    EXPECT_EQ(defaults["volume"]["estimator"], "sphere");
+    EXPECT_EQ(defaults["march"]["method"], "march");
+    EXPECT_EQ(defaults["march"]["step_voxels"], 1.0);
+}
+
+TEST(SceneDescJson, NegativePhotonBudgetIsRejectedByTheReader) {
+    const InputError e = parse_error(json::parse(R"({"photons": {"volume": -5}})"));
+    EXPECT_EQ(e.field, "/photons/volume");
+    EXPECT_EQ(e.reason, "expected a non-negative integer (64 bits), found -5");
+
+    const InputError f = parse_error(json::parse(R"({"photons": {"max_emitted": 1.5}})"));
+    EXPECT_EQ(f.field, "/photons/max_emitted");
+    EXPECT_EQ(f.reason, "expected a non-negative integer, found number 1.5");
 }
 
 TEST(SceneDescJson, TransformComposesScaleRotationsTranslation) {
@@ -368,6 +480,28 @@ TEST(SceneDescOverride, OverridesChangeValues) {
     EXPECT_EQ(doc, json::parse(R"({"render": {"threads": 2}})"));
 }
 
+TEST(SceneDescOverride, OverridesReachTheNewSettings) {
+    TempDir dir;
+    const std::string path = dir.write("scene.json", full_scene().dump());
+    const SceneDesc d =
+        load_scene_desc(path, {"volume.k=64", "march.method=march", "photons.caustic=0",
+                               "global.final_gather=false", "render.integrator=photon"});
+    EXPECT_EQ(d.volume.k, 64);
+    EXPECT_EQ(d.volume.radius, 0.25f);  // untouched
+    EXPECT_EQ(d.march.method, FreePathMethod::March);
+    EXPECT_EQ(d.photons.caustic, 0u);
+    EXPECT_FALSE(d.global.final_gather);
+    EXPECT_EQ(d.render.integrator, Integrator::Photon);
+
+    // A scene without a "volume" object gets one created by the override.
+    const std::string bare = dir.write("bare.json", "{}");
+    EXPECT_EQ(load_scene_desc(bare, {"volume.k=64"}).volume.k, 64);
+
+    const InputError k = catch_input_error([&] { load_scene_desc(path, {"volume.k=0"}); });
+    EXPECT_EQ(k.field, "/volume/k");
+    EXPECT_EQ(k.reason, "k must be in [1, 100000]; found 0 (from --set 'volume.k=0')");
+}
+
 TEST(SceneDescOverride, BadOverridesFailThroughTheNormalChecks) {
     TempDir dir;
     const std::string path = dir.write("scene.json", full_scene().dump());
@@ -430,6 +564,39 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "max_depth must be in [1, 100000]; found 100001"},
         {R"({"render": {"threads": -2}})", "/render/threads",
          "threads must be >= 0 (0 = all cores); found -2"},
+        {R"({"photons": {"global": 1000000001}})", "/photons/global",
+         "global must be in [0, 1000000000]; found 1000000001"},
+        {R"({"photons": {"caustic": 18446744073709551615}})", "/photons/caustic",
+         "caustic must be in [0, 1000000000]; found 18446744073709551615"},
+        {R"({"photons": {"volume": 2000000000}})", "/photons/volume",
+         "volume must be in [0, 1000000000]; found 2000000000"},
+        {R"({"photons": {"max_bounces": 0}})", "/photons/max_bounces",
+         "max_bounces must be in [1, 100000]; found 0"},
+        {R"({"photons": {"max_bounces": 100001}})", "/photons/max_bounces",
+         "max_bounces must be in [1, 100000]; found 100001"},
+        {R"({"global": {"k": 0}})", "/global/k", "k must be in [1, 100000]; found 0"},
+        {R"({"global": {"radius": -0.5}})", "/global/radius",
+         "radius must be finite and >= 0; found -0.5"},
+        {R"({"global": {"gather_rays": 0}})", "/global/gather_rays",
+         "gather_rays must be in [1, 4096]; found 0"},
+        {R"({"global": {"gather_rays": 4097}})", "/global/gather_rays",
+         "gather_rays must be in [1, 4096]; found 4097"},
+        {R"({"caustic": {"k": 100001}})", "/caustic/k", "k must be in [1, 100000]; found 100001"},
+        {R"({"caustic": {"radius": -1}})", "/caustic/radius",
+         "radius must be finite and >= 0; found -1"},
+        {R"({"caustic": {"cone_filter": 0.5}})", "/caustic/cone_filter",
+         "cone_filter must be 0 (box filter) or finite and >= 1 (Jensen's k_f); found 0.5"},
+        {R"({"caustic": {"cone_filter": -1}})", "/caustic/cone_filter",
+         "cone_filter must be 0 (box filter) or finite and >= 1 (Jensen's k_f); found -1"},
+        {R"({"volume": {"k": -3}})", "/volume/k", "k must be in [1, 100000]; found -3"},
+        {R"({"volume": {"radius": -2}})", "/volume/radius",
+         "radius must be finite and >= 0; found -2"},
+        {R"({"march": {"step_voxels": 0}})", "/march/step_voxels",
+         "step_voxels must be finite, > 0 and <= 1000000; found 0"},
+        {R"({"march": {"step_voxels": 2e6}})", "/march/step_voxels",
+         "step_voxels must be finite, > 0 and <= 1000000; found 2e+06"},
+        {R"({"march": {"step_world": -0.1}})", "/march/step_world",
+         "step_world must be finite and >= 0; found -0.1"},
     };
     for (const Case& c : cases) {
         json doc = full_scene();
@@ -439,6 +606,31 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
         EXPECT_EQ(e.field, c.field) << c.patch;
         EXPECT_EQ(e.reason, c.reason) << c.patch;
     }
+}
+
+TEST(SceneValidate, NewSettingsAcceptTheirBoundaries) {
+    json doc = full_scene();
+    doc.merge_patch(json::parse(R"({
+      "photons": {"global": 0, "caustic": 1000000000, "volume": 0, "max_emitted": 0,
+                  "max_bounces": 100000},
+      "global": {"k": 1, "radius": 0, "gather_rays": 4096},
+      "caustic": {"k": 100000, "radius": 0, "cone_filter": 1},
+      "volume": {"k": 1, "radius": 0},
+      "march": {"step_voxels": 1000000, "step_world": 0}})"));
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+    doc["march"]["step_voxels"] = 1e-6;
+    doc["caustic"]["cone_filter"] = 0;
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+
+    // Values that JSON cannot carry but code can: validate catches them too.
+    SceneDesc d;
+    d.march.step_world = std::numeric_limits<float>::infinity();
+    const InputError e = catch_input_error([&] { validate(d); });
+    EXPECT_EQ(e.field, "/march/step_world");
+    EXPECT_EQ(e.reason, "step_world must be finite and >= 0; found inf");
+    d = SceneDesc{};
+    d.caustic.cone_filter = std::nanf("");
+    EXPECT_EQ(catch_input_error([&] { validate(d); }).field, "/caustic/cone_filter");
 }
 
 TEST(SceneValidate, ArrayEntriesAreCheckedPerType) {

@@ -1,0 +1,53 @@
+#include "photon/estimators.h"
+
+#include "media/henyey_greenstein.h"
+
+namespace fogmap {
+
+namespace {
+
+// Radius of the estimate: the k-th photon's distance when k were found, else r_max.
+float estimate_radius2(const NeighborList& found, int k, float r_max) {
+    return static_cast<int>(found.size()) >= k ? found.max_dist2() : r_max * r_max;
+}
+
+}  // namespace
+
+Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
+                         float cone_kf, uint8_t skip_flags, NeighborList& scratch) {
+    map.tree.knn(x, k, r_max, &scratch);
+    if (scratch.empty()) return Color(0.0f);
+    const float r2 = estimate_radius2(scratch, k, r_max);
+    if (!(r2 > 0.0f)) return Color(0.0f);
+    const float r = std::sqrt(r2);
+    const std::vector<Photon>& photons = map.tree.records();
+    Color sum(0.0f);
+    for (size_t i = 0; i < scratch.size(); ++i) {
+        const Photon& p = photons[scratch[i].index];
+        if ((p.flags & skip_flags) != 0) continue;
+        if (glm::dot(p.direction(), n) <= 0.0f) continue;  // arrived on the other side
+        float w = 1.0f;
+        if (cone_kf > 0.0f) w = 1.0f - std::sqrt(scratch[i].dist2) / (cone_kf * r);
+        sum += w * p.power();
+    }
+    const float norm = cone_kf > 0.0f ? 1.0f - 2.0f / (3.0f * cone_kf) : 1.0f;
+    return sum * (map.photon_power / (kPi * r2 * norm));
+}
+
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, float g, int k,
+                         float r_max, NeighborList& scratch) {
+    map.tree.knn(x, k, r_max, &scratch);
+    if (scratch.empty()) return Color(0.0f);
+    const float r2 = estimate_radius2(scratch, k, r_max);
+    if (!(r2 > 0.0f)) return Color(0.0f);
+    const std::vector<Photon>& photons = map.tree.records();
+    Color sum(0.0f);
+    for (size_t i = 0; i < scratch.size(); ++i) {
+        const Photon& p = photons[scratch[i].index];
+        sum += hg_phase(glm::dot(p.direction(), wo), g) * p.power();
+    }
+    const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
+    return sum * (map.photon_power / volume);
+}
+
+}  // namespace fogmap

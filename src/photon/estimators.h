@@ -1,0 +1,23 @@
+#pragma once
+// Radiance estimates from photon maps (DESIGN.md, Radiance estimates). Surface: disc estimate
+// over the k nearest photons (or all within r_max), r = distance to the k-th photon or r_max,
+// optional cone filter (Jensen, normalised by 1 − 2/(3 k_f)). Volume: spherical estimate of the
+// in-scattered radiance σ_s L_i = Σ p ΔΦ / ((4/3) π r³). Photon power = relative RGBE power ×
+// the map's photon_power. Thread-safe given a NeighborList per thread.
+
+#include "photon/photon_pass.h"
+
+namespace fogmap {
+
+/// Irradiance (W/m²) at surface point x with unit normal n from photons that arrived on the side
+/// n faces. Photons whose flags intersect skip_flags are left out (the global map shown directly
+/// skips caustic photons, which the caustic map shows). cone_kf = 0: box filter.
+Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
+                         float cone_kf, uint8_t skip_flags, NeighborList& scratch);
+
+/// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the
+/// Henyey–Greenstein phase g applied to each photon's travel direction.
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, float g, int k,
+                         float r_max, NeighborList& scratch);
+
+}  // namespace fogmap

@@ -1,0 +1,52 @@
+#pragma once
+// The photon record (DESIGN.md, Photons): 20 bytes, pointer-free. Position as float[3]; power as
+// shared-exponent RGBE relative to its map's photon power (grey photons store exactly 1, so the
+// encoding adds no error there); a direction as a 16-bit octahedral code (see dir_oct); the
+// kd-tree split axis; flags. Plain data; thread-safe to read.
+
+#include "core/math.h"
+
+#include <cstdint>
+
+namespace fogmap {
+
+/// Shared-exponent RGB (Ward): 8-bit mantissas, common 8-bit exponent. Non-negative finite input.
+uint32_t encode_rgbe(const Color& c);
+Color decode_rgbe(uint32_t rgbe);
+
+/// Octahedral map of a unit vector to 8+8 bits (max angular error 0.65 degrees, axes exact).
+uint16_t encode_oct16(const Vec3& dir);
+Vec3 decode_oct16(uint16_t code);
+
+struct Photon {
+    enum Flags : uint8_t {
+        kCaustic = 1,  ///< global-map photon whose path is L S+ D (also in the caustic map)
+    };
+
+    float pos[3];
+    uint32_t power_rgbe;  ///< power relative to the map's photon power
+    /// Volume map: the incoming travel direction (the phase function needs it). Surface maps:
+    /// the surface normal on the side the photon arrived from — Lambertian surfaces need no
+    /// direction, while the side test and Christensen's irradiance points need the normal.
+    uint16_t dir_oct;
+    uint8_t split_axis;  ///< kd-tree slot: 0, 1, 2 (3 = leaf)
+    uint8_t flags;
+
+    Photon() = default;
+    Photon(const Vec3& p, const Vec3& dir, const Color& power, uint8_t flags_ = 0)
+        : pos{p.x, p.y, p.z},
+          power_rgbe(encode_rgbe(power)),
+          dir_oct(encode_oct16(dir)),
+          split_axis(3),
+          flags(flags_) {}
+
+    Vec3 position() const { return Vec3(pos[0], pos[1], pos[2]); }
+    Color power() const { return decode_rgbe(power_rgbe); }
+    Vec3 direction() const { return decode_oct16(dir_oct); }
+    int axis() const { return split_axis; }
+    void set_axis(int a) { split_axis = static_cast<uint8_t>(a); }
+};
+
+static_assert(sizeof(Photon) == 20, "photon record must stay 20 bytes");
+
+}  // namespace fogmap

@@ -1,0 +1,281 @@
+#include "photon/photon_pass.h"
+
+#include "core/progress.h"
+#include "core/timer.h"
+#include "media/henyey_greenstein.h"
+#include "media/ray_march.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#include <array>
+
+namespace fogmap {
+
+namespace {
+
+constexpr uint64_t kPhotonStream =
+    0x50484F544F4Eull;  // "PHOTON": photons never share pixels' streams
+constexpr uint64_t kBatch = 1u << 15;
+constexpr uint64_t kChunk = 512;
+
+enum MapId : uint8_t { kGlobal = 0, kCaustic = 1, kVolume = 2 };
+
+struct Tagged {
+    uint32_t index;  ///< emission index within the batch
+    uint8_t map;
+    Photon photon;
+};
+
+struct Tracer {
+    const Scene& scene;
+    const PhotonSettings& settings;
+    std::array<bool, 3> store;  ///< which maps still take photons
+    RayMarcher marcher;
+    std::vector<float> light_cdf;
+    std::vector<Color> light_relative_power;  ///< Φ_l / avg(Φ_l)
+    float offset_floor;
+
+    // Henyey–Greenstein g at x: the medium chosen in proportion to its scattering there.
+    float choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x, Rng& rng) const {
+        if (samplers.size() == 1) return samplers[0].medium().params().g;
+        std::array<float, kMaxMedia> w;
+        float sum = 0.0f;
+        for (size_t i = 0; i < samplers.size(); ++i) {
+            w[i] = samplers[i].density(x) * average(samplers[i].medium().params().sigma_s);
+            sum += w[i];
+        }
+        float u = rng.uniform() * sum;
+        for (size_t i = 0; i < samplers.size(); ++i) {
+            if (u < w[i]) return samplers[i].medium().params().g;
+            u -= w[i];
+        }
+        return samplers.back().medium().params().g;
+    }
+
+    void trace(uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
+               std::vector<Tagged>& out) const {
+        // Light ∝ power, then a photon from it.
+        const float pick = rng.uniform() * light_cdf.back();
+        const size_t li = std::min<size_t>(
+            std::upper_bound(light_cdf.begin(), light_cdf.end(), pick) - light_cdf.begin(),
+            light_cdf.size() - 1);
+        Ray ray;
+        if (!sample_photon(scene.lights[li], scene.bounds, rng, &ray)) return;
+        Color power = light_relative_power[li];
+        bool specular_chain = true;  // every interaction so far was specular
+        const bool has_media = !samplers.empty();
+        for (int depth = 0; depth < settings.max_bounces; ++depth) {
+            std::optional<SurfaceHit> hit;
+            float t_max = kInfinity;
+            if (scene.surfaces) {
+                hit = scene.surfaces->intersect(ray, 0.0f, kInfinity);
+                if (hit) t_max = hit->t;
+            }
+            if (has_media) {
+                bool scattered = false;
+                Vec3 x;
+                if (scene.desc.march.method == FreePathMethod::March) {
+                    const RayMarcher::FreePath fp =
+                        marcher.sample_free_path(samplers, ray, t_max, rng);
+                    power *= fp.weight;
+                    if (fp.collided) {
+                        x = fp.x;
+                        // Russian roulette on the albedo; power changes only by channel ratios.
+                        // Only scattering events are stored (absorptions would count σ_t, not σ_s).
+                        const double p = (double(fp.sigma_s.x) + fp.sigma_s.y + fp.sigma_s.z) /
+                                         (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
+                        if (rng.uniform() >= p) return;
+                        power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
+                        if (depth > 0 && store[kVolume])
+                            out.push_back({index, kVolume, Photon(x, ray.d, power)});
+                        scattered = true;
+                    }
+                } else {
+                    Color beta(1.0f);
+                    const TrackResult tr = delta_track(samplers, ray, t_max, rng, &beta);
+                    power *= beta;
+                    if (tr.event == TrackEvent::Absorbed) return;
+                    if (tr.event == TrackEvent::Scattered) {
+                        x = ray.at(tr.t);
+                        if (depth > 0 && store[kVolume])
+                            out.push_back({index, kVolume, Photon(x, ray.d, power)});
+                        scattered = true;
+                    }
+                }
+                if (scattered) {
+                    float pdf;
+                    const float g = choose_g(samplers, x, rng);
+                    const Vec3 d = hg_sample(ray.d, g, Vec2(rng.uniform(), rng.uniform()), &pdf);
+                    ray = Ray{x, d};
+                    specular_chain = false;
+                    continue;
+                }
+            }
+            if (!hit || hit->material < 0) return;
+            const Material& mat = scene.materials[hit->material];
+            const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
+            const Vec3 n = front ? hit->ng : -hit->ng;  // faces where the photon came from
+            switch (mat.type) {
+                case MaterialType::Diffuse: {
+                    if (depth > 0) {
+                        // Surface photons keep the normal of the side they arrived on (Lambertian
+                        // surfaces need no direction; see photon.h).
+                        const bool caustic = specular_chain;
+                        if (store[kGlobal])
+                            out.push_back(
+                                {index, kGlobal,
+                                 Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0)});
+                        if (caustic && store[kCaustic])
+                            out.push_back({index, kCaustic, Photon(hit->p, n, power)});
+                    }
+                    const float p = average(mat.albedo);
+                    if (rng.uniform() >= p) return;
+                    power *= mat.albedo / p;
+                    ray = Ray{offset_point(hit->p, n, offset_floor),
+                              sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
+                    specular_chain = false;
+                    break;
+                }
+                case MaterialType::Mirror: {
+                    const float p = average(mat.albedo);
+                    if (rng.uniform() >= p) return;
+                    power *= mat.albedo / p;
+                    ray = Ray{offset_point(hit->p, n, offset_floor),
+                              glm::normalize(reflect(ray.d, n))};
+                    break;
+                }
+                case MaterialType::Glass: {
+                    const float eta = front ? mat.ior : 1.0f / mat.ior;
+                    const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
+                    Vec3 wt;
+                    if (rng.uniform() < F || !refract(ray.d, n, eta, &wt))
+                        ray = Ray{offset_point(hit->p, n, offset_floor),
+                                  glm::normalize(reflect(ray.d, n))};
+                    else
+                        ray = Ray{offset_point(hit->p, -n, offset_floor), wt};
+                    break;
+                }
+            }
+        }
+    }
+};
+
+}  // namespace
+
+PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet) {
+    const Timer timer;
+    const PhotonSettings& settings = scene.desc.photons;
+    PhotonPassResult result;
+    std::array<StoredPhotons*, 3> maps{nullptr, nullptr, nullptr};
+    if (plan.global_map.on) maps[kGlobal] = &result.global.emplace();
+    if (plan.caustic_map.on) maps[kCaustic] = &result.caustic.emplace();
+    if (plan.volume_map.on) maps[kVolume] = &result.volume.emplace();
+    const std::array<uint64_t, 3> budgets{settings.global, settings.caustic, settings.volume};
+    uint64_t largest = 0;
+    for (int m = 0; m < 3; ++m) {
+        if (!maps[m]) continue;
+        maps[m]->budget = budgets[m];
+        maps[m]->photons.reserve(budgets[m] + 64);
+        largest = std::max(largest, budgets[m]);
+    }
+    if (largest == 0) return result;
+
+    Tracer tracer{scene, settings, {}, RayMarcher(scene.media, scene.desc.march), {}, {}, 0.0f};
+    float cumulative = 0.0f;
+    for (const Light& l : scene.lights) {
+        const Color power = light_power(l, scene.bounds);
+        const float avg = average(power);
+        cumulative += avg;
+        tracer.light_cdf.push_back(cumulative);
+        tracer.light_relative_power.push_back(avg > 0.0f ? power / avg : Color(0.0f));
+    }
+    result.total_power = cumulative;
+    if (!(cumulative > 0.0f)) {
+        result.warnings.push_back("no light emits power: no photons traced");
+        return result;
+    }
+    tracer.offset_floor =
+        1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()));
+
+    const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
+    std::array<uint64_t, 3> full_at{0, 0, 0};
+    auto unfilled = [&] {
+        for (int m = 0; m < 3; ++m)
+            if (maps[m] && maps[m]->budget > 0 && full_at[m] == 0) return true;
+        return false;
+    };
+    Progress progress("photons", 1000, quiet);
+    uint64_t shown = 0;
+    while (unfilled() && result.emitted < cap) {
+        const uint64_t n = std::min(kBatch, cap - result.emitted);
+        const uint64_t chunks = (n + kChunk - 1) / kChunk;
+        std::vector<std::vector<Tagged>> out(chunks);
+        for (int m = 0; m < 3; ++m) tracer.store[m] = maps[m] && full_at[m] == 0;
+        const uint64_t base = result.emitted;
+        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
+            std::vector<Medium::Sampler> samplers;
+            for (const Medium& m : scene.media) samplers.emplace_back(m);
+            for (uint64_t c = r.begin(); c != r.end(); ++c) {
+                for (uint64_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
+                    Rng rng(scene.desc.render.seed, base + i, kPhotonStream);
+                    tracer.trace(static_cast<uint32_t>(i), rng, samplers, out[c]);
+                }
+            }
+        });
+        // Merge in emission order; a map stops at the photon that fills it (whole path kept).
+        for (const std::vector<Tagged>& chunk : out) {
+            for (const Tagged& t : chunk) {
+                StoredPhotons& map = *maps[t.map];
+                const uint64_t e = base + t.index;
+                if (full_at[t.map] != 0 && e >= full_at[t.map]) continue;
+                map.photons.push_back(t.photon);
+                if (map.photons.size() >= map.budget && full_at[t.map] == 0) full_at[t.map] = e + 1;
+            }
+        }
+        result.emitted += n;
+        double fill = 1.0;
+        for (int m = 0; m < 3; ++m)
+            if (maps[m] && maps[m]->budget > 0)
+                fill = std::min(fill, double(maps[m]->photons.size()) / maps[m]->budget);
+        const uint64_t now =
+            static_cast<uint64_t>(1000.0 * std::max(fill, double(result.emitted) / double(cap)));
+        if (now > shown) progress.add(now - shown), shown = now;
+    }
+    progress.finish();
+    static const char* kNames[3] = {"global", "caustic", "volume"};
+    for (int m = 0; m < 3; ++m) {
+        if (!maps[m]) continue;
+        maps[m]->emitted = full_at[m] ? full_at[m] : result.emitted;
+        if (maps[m]->photons.size() < maps[m]->budget)
+            result.warnings.push_back(
+                std::string(kNames[m]) + " map: " + std::to_string(maps[m]->photons.size()) +
+                " of " + std::to_string(maps[m]->budget) + " photons stored after " +
+                std::to_string(result.emitted) + " emitted (photons.max_emitted reached)");
+    }
+    result.time_s = timer.seconds();
+    return result;
+}
+
+PhotonMaps build_trees(PhotonPassResult&& pass) {
+    PhotonMaps maps;
+    auto build = [&](std::optional<StoredPhotons>& in, std::optional<PhotonMap>& out) {
+        if (!in) return;
+        const Timer timer;
+        PhotonMap m;
+        m.emitted = in->emitted;
+        m.photon_power =
+            in->emitted > 0 ? pass.total_power / static_cast<float>(in->emitted) : 0.0f;
+        in->photons.shrink_to_fit();
+        m.tree = KdTree<Photon>(std::move(in->photons));
+        m.build_s = timer.seconds();
+        out = std::move(m);
+    };
+    tbb::parallel_invoke([&] { build(pass.global, maps.global); },
+                         [&] { build(pass.caustic, maps.caustic); },
+                         [&] { build(pass.volume, maps.volume); });
+    return maps;
+}
+
+}  // namespace fogmap

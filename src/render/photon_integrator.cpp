@@ -1,0 +1,339 @@
+#include "render/photon_integrator.h"
+
+#include "core/progress.h"
+#include "core/timer.h"
+#include "media/henyey_greenstein.h"
+#include "photon/estimators.h"
+#include "render/camera.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+
+namespace fogmap {
+
+namespace {
+
+constexpr int kTile = 16;
+constexpr float kGatherNormalCos = 0.9f;  // irradiance points count only on like-facing surfaces
+
+// ∫₀^h e^{−σ s} ds per channel: the weight of a step whose σ is held constant.
+Color step_weight(const Color& sigma_t, float h) {
+    Color w;
+    for (int c = 0; c < 3; ++c)
+        w[c] = sigma_t[c] * h > 1e-6f ? -std::expm1(-sigma_t[c] * h) / sigma_t[c] : h;
+    return w;
+}
+
+Color exp_neg(const Color& tau) {
+    return Color(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
+}
+
+}  // namespace
+
+// Irradiance at every fourth global photon, with the photon's surface normal (Christensen 1999).
+struct IrradiancePoint {
+    float pos[3];
+    uint16_t normal_oct;
+    uint8_t split_axis;
+    uint8_t pad;
+    float e[3];
+    Vec3 position() const { return Vec3(pos[0], pos[1], pos[2]); }
+    int axis() const { return split_axis; }
+    void set_axis(int a) { split_axis = static_cast<uint8_t>(a); }
+};
+
+struct PhotonIntegrator::Irradiance {
+    KdTree<IrradiancePoint> tree;
+};
+
+std::vector<NamedImage> AovImages::layers() const {
+    return {{"direct", &direct},
+            {"volume_single", &volume_single},
+            {"volume_multiple", &volume_multiple},
+            {"caustic", &caustic},
+            {"indirect", &indirect}};
+}
+
+GatherRadii gather_radii(const Scene& scene) {
+    const float diag = scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent());
+    Box3 media;
+    for (const Medium& m : scene.media) media.extend(m.world_bounds());
+    const float media_diag = media.empty() ? diag : glm::length(media.extent());
+    const SceneDesc& d = scene.desc;
+    return {d.global.radius > 0.0f ? d.global.radius : 0.02f * diag,
+            d.caustic.radius > 0.0f ? d.caustic.radius : 0.01f * diag,
+            d.volume.radius > 0.0f ? d.volume.radius : 0.05f * media_diag};
+}
+
+PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps)
+    : scene_(scene),
+      maps_(maps),
+      marcher_(scene.media, scene.desc.march),
+      radii_(gather_radii(scene)) {
+    offset_floor_ = 1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()));
+    if (!scene.desc.global.final_gather || !maps.global || maps.global->tree.empty()) return;
+    const Timer timer;
+    const std::vector<Photon>& photons = maps.global->tree.records();
+    std::vector<IrradiancePoint> points((photons.size() + 3) / 4);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size()), [&](const auto& r) {
+        NeighborList scratch;
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            const Photon& p = photons[4 * i];
+            const Color e =
+                surface_irradiance(*maps.global, p.position(), p.direction(), scene.desc.global.k,
+                                   radii_.global, 0.0f, 0, scratch);
+            points[i] =
+                IrradiancePoint{{p.pos[0], p.pos[1], p.pos[2]}, p.dir_oct, 3, 0, {e.x, e.y, e.z}};
+        }
+    });
+    irradiance_ = std::make_unique<Irradiance>();
+    irradiance_->tree = KdTree<IrradiancePoint>(std::move(points));
+    precompute_s_ = timer.seconds();
+}
+
+PhotonIntegrator::~PhotonIntegrator() = default;
+
+PhotonIntegrator::ThreadState PhotonIntegrator::make_state() const {
+    ThreadState ts;
+    for (const Medium& m : scene_.media) ts.media.emplace_back(m);
+    return ts;
+}
+
+Color PhotonIntegrator::shadow_transmittance(const Ray& ray, float t_max, Rng& rng,
+                                             ThreadState& ts) const {
+    if (scene_.surfaces) {
+        ++ts.rays;
+        if (scene_.surfaces->occluded(ray, 0.0f, t_max)) return Color(0.0f);
+    }
+    return ts.media.empty() ? Color(1.0f) : ratio_track(ts.media, ray, t_max, rng);
+}
+
+Color PhotonIntegrator::direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
+                                       ThreadState& ts) const {
+    const Vec3 origin = offset_point(p, n, offset_floor_);
+    Color sum(0.0f);
+    for (const Light& light : scene_.lights) {
+        const LightSample s = sample_light(light, origin, Vec2(rng.uniform(), rng.uniform()));
+        const float cos = glm::dot(n, s.wi);
+        if (s.pdf <= 0.0f || cos <= 0.0f || max_component(s.Li) <= 0.0f) continue;
+        const Color T = shadow_transmittance(Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f), rng, ts);
+        sum += s.Li * T * (cos / s.pdf);
+    }
+    return albedo * kInvPi * sum;
+}
+
+Color PhotonIntegrator::single_scatter(const Vec3& x, const Vec3& dir, float g, Rng& rng,
+                                       ThreadState& ts) const {
+    Color sum(0.0f);
+    for (const Light& light : scene_.lights) {
+        const LightSample s = sample_light(light, x, Vec2(rng.uniform(), rng.uniform()));
+        if (s.pdf <= 0.0f || max_component(s.Li) <= 0.0f) continue;
+        const Color T = shadow_transmittance(Ray{x, s.wi}, s.dist * (1.0f - 1e-4f), rng, ts);
+        sum += hg_phase(glm::dot(dir, s.wi), g) * s.Li * T / s.pdf;
+    }
+    return sum;
+}
+
+// g at x for the volume estimate: the σ_s-weighted mean of the media present (exact for one).
+float PhotonIntegrator::phase_g(ThreadState& ts, const Vec3& x) const {
+    if (ts.media.size() == 1) return ts.media[0].medium().params().g;
+    float sum = 0.0f, gsum = 0.0f;
+    for (Medium::Sampler& s : ts.media) {
+        const float w = s.density(x) * average(s.medium().params().sigma_s);
+        sum += w;
+        gsum += w * s.medium().params().g;
+    }
+    return sum > 0.0f ? gsum / sum : 0.0f;
+}
+
+Color PhotonIntegrator::global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const {
+    if (irradiance_) {
+        irradiance_->tree.knn(p, 8, radii_.global, &ts.neighbors);
+        float best = kInfinity;
+        const IrradiancePoint* found = nullptr;
+        for (size_t i = 0; i < ts.neighbors.size(); ++i) {
+            const IrradiancePoint& q = irradiance_->tree.records()[ts.neighbors[i].index];
+            if (ts.neighbors[i].dist2 < best &&
+                glm::dot(decode_oct16(q.normal_oct), n) > kGatherNormalCos) {
+                best = ts.neighbors[i].dist2;
+                found = &q;
+            }
+        }
+        if (found) return Color(found->e[0], found->e[1], found->e[2]);
+    }
+    return surface_irradiance(*maps_.global, p, n, scene_.desc.global.k, radii_.global, 0.0f, 0,
+                              ts.neighbors);
+}
+
+Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
+                                     ThreadState& ts) const {
+    const int rays = scene_.desc.global.gather_rays;
+    const Vec3 origin = offset_point(p, n, offset_floor_);
+    Color sum(0.0f);
+    for (int j = 0; j < rays; ++j) {
+        // Stratified in the first dimension, cosine-distributed: each ray's weight is L2 itself.
+        const Vec2 u((j + rng.uniform()) / rays, rng.uniform());
+        const Ray ray{origin, sample_cosine_hemisphere(n, u)};
+        ++ts.rays;
+        const std::optional<SurfaceHit> hit = scene_.surfaces->intersect(ray, 0.0f, kInfinity);
+        if (!hit || hit->material < 0) continue;  // lights and sky are direct light, counted at p
+        const Material& mat = scene_.materials[hit->material];
+        if (mat.type != MaterialType::Diffuse) continue;  // gather stops at specular surfaces
+        const Vec3 n2 = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
+        Color L2 = direct_surface(hit->p, n2, mat.albedo, rng, ts) +
+                   mat.albedo * kInvPi * global_irradiance(hit->p, n2, ts);
+        if (!ts.media.empty()) L2 *= ratio_track(ts.media, ray, hit->t, rng);
+        sum += L2;
+    }
+    return sum / static_cast<float>(rays);
+}
+
+PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng,
+                                                    ThreadState& ts) const {
+    Sample out;
+    Ray ray = camera_ray;
+    Color beta(1.0f);
+    const SceneDesc& desc = scene_.desc;
+    for (int depth = 0; depth < desc.render.max_depth; ++depth) {
+        std::optional<SurfaceHit> hit;
+        float t_max = kInfinity;
+        if (scene_.surfaces) {
+            ++ts.rays;
+            hit = scene_.surfaces->intersect(ray, 0.0f, kInfinity);
+            if (hit) t_max = hit->t;
+        }
+        if (!ts.media.empty()) {
+            Color tau(0.0f);
+            marcher_.march(ts.media, ray, t_max, rng.uniform(), [&](const MarchStep& s) {
+                const float h = s.t1 - s.t0;
+                const Color w = beta * exp_neg(tau) * step_weight(s.sigma_t, h);
+                tau += s.sigma_t * h;
+                if (max_component(s.sigma_s) > 0.0f) {
+                    const float g = phase_g(ts, s.x);
+                    out.volume_single += w * s.sigma_s * single_scatter(s.x, ray.d, g, rng, ts);
+                    if (maps_.volume)
+                        out.volume_multiple +=
+                            w * volume_inscattered(*maps_.volume, s.x, -ray.d, g, desc.volume.k,
+                                                   radii_.volume, ts.neighbors);
+                }
+                return max_component(exp_neg(tau)) > 1e-6f;  // nothing visible beyond
+            });
+            beta *= exp_neg(tau);
+            if (max_component(beta) <= 0.0f) break;
+        }
+        if (!hit) {
+            for (const Light& light : scene_.lights)
+                if (light.is_infinite()) out.direct += beta * escaped_radiance(light, ray.d);
+            break;
+        }
+        if (hit->light >= 0) {
+            out.direct += beta * quad_radiance(scene_.lights[hit->light], ray.d);
+            break;
+        }
+        if (hit->material < 0) break;
+        const Material& mat = scene_.materials[hit->material];
+        const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
+        const Vec3 n = front ? hit->ng : -hit->ng;
+        if (mat.type == MaterialType::Diffuse) {
+            out.direct += beta * direct_surface(hit->p, n, mat.albedo, rng, ts);
+            if (maps_.caustic)
+                out.caustic +=
+                    beta * mat.albedo * kInvPi *
+                    surface_irradiance(*maps_.caustic, hit->p, n, desc.caustic.k, radii_.caustic,
+                                       desc.caustic.cone_filter, 0, ts.neighbors);
+            if (maps_.global) {
+                if (desc.global.final_gather)
+                    out.indirect += beta * mat.albedo * final_gather(hit->p, n, rng, ts);
+                else
+                    out.indirect +=
+                        beta * mat.albedo * kInvPi *
+                        surface_irradiance(*maps_.global, hit->p, n, desc.global.k, radii_.global,
+                                           0.0f, Photon::kCaustic, ts.neighbors);
+            }
+            break;
+        }
+        if (mat.type == MaterialType::Mirror) {
+            beta *= mat.albedo;
+            ray = Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
+            continue;
+        }
+        const float eta = front ? mat.ior : 1.0f / mat.ior;
+        const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
+        Vec3 wt;
+        if (rng.uniform() < F || !refract(ray.d, n, eta, &wt)) {
+            ray = Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
+        } else {
+            beta /= eta * eta;
+            ray = Ray{offset_point(hit->p, -n, offset_floor_), wt};
+        }
+    }
+    return out;
+}
+
+AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
+                        bool quiet, RenderStats* stats, double* precompute_s) {
+    const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const PhotonIntegrator integrator(scene, maps);
+    if (precompute_s) *precompute_s = integrator.precompute_s();
+    const Camera camera(scene.desc.camera);
+    const int w = camera.width(), h = camera.height();
+    AovImages aov{Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h)};
+    const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
+    std::atomic<uint64_t> rays{0}, nonfinite{0};
+    Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
+    const Timer timer;
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
+        for (int tile = range.begin(); tile != range.end(); ++tile) {
+            PhotonIntegrator::ThreadState ts = integrator.make_state();
+            uint64_t dropped = 0;
+            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+            for (int y = y0; y < std::min(y0 + kTile, h); ++y) {
+                for (int x = x0; x < std::min(x0 + kTile, w); ++x) {
+                    PhotonIntegrator::Sample sum;
+                    const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+                    for (int s = 0; s < settings.spp; ++s) {
+                        Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
+                        const float jx = rng.uniform(), jy = rng.uniform();
+                        const PhotonIntegrator::Sample c =
+                            integrator.radiance(camera.generate(x + jx, y + jy), rng, ts);
+                        if (!is_finite(c.beauty())) {
+                            ++dropped;
+                            continue;
+                        }
+                        sum.direct += c.direct;
+                        sum.volume_single += c.volume_single;
+                        sum.volume_multiple += c.volume_multiple;
+                        sum.caustic += c.caustic;
+                        sum.indirect += c.indirect;
+                    }
+                    const float inv = 1.0f / static_cast<float>(settings.spp);
+                    aov.direct.at(x, y) = sum.direct * inv;
+                    aov.volume_single.at(x, y) = sum.volume_single * inv;
+                    aov.volume_multiple.at(x, y) = sum.volume_multiple * inv;
+                    aov.caustic.at(x, y) = sum.caustic * inv;
+                    aov.indirect.at(x, y) = sum.indirect * inv;
+                    aov.beauty.at(x, y) = sum.beauty() * inv;
+                }
+            }
+            rays += ts.rays;
+            nonfinite += dropped;
+            progress.add();
+        }
+    });
+    progress.finish();
+    if (stats) {
+        stats->render_s = timer.seconds();
+        stats->samples = static_cast<uint64_t>(w) * h * settings.spp;
+        stats->rays = rays.load();
+        stats->nonfinite = nonfinite.load();
+        stats->threads = threads;
+    }
+    return aov;
+}
+
+}  // namespace fogmap

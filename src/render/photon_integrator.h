@@ -1,0 +1,79 @@
+#pragma once
+// The photon-map renderer (DESIGN.md, Radiance estimates): camera rays follow specular surfaces
+// by recursion; at the first diffuse surface direct light comes from shadow rays (transmittance
+// by ratio tracking), caustics from the caustic map and indirect diffuse light from the global
+// map, shown directly or through final gathering with irradiance precomputed at photon positions
+// (Christensen 1999). Along the way camera rays march through media (same step settings as the
+// photon pass): single scattering from shadow rays, multiple scattering from the volume map.
+// Each term goes to its own AOV. Deterministic per seed: pixel (x, y), sample s draws from
+// Rng(seed, y*width+x, s).
+
+#include "core/image.h"
+#include "media/ray_march.h"
+#include "photon/photon_pass.h"
+#include "render/path_tracer.h"
+
+namespace fogmap {
+
+/// Beauty and its additive parts.
+struct AovImages {
+    Image beauty, direct, volume_single, volume_multiple, caustic, indirect;
+    /// The EXR layers, in a fixed order.
+    std::vector<NamedImage> layers() const;
+};
+
+/// Effective gather radii after defaults (world units).
+struct GatherRadii {
+    float global = 0.0f, caustic = 0.0f, volume = 0.0f;
+};
+GatherRadii gather_radii(const Scene& scene);
+
+class PhotonIntegrator {
+public:
+    /// Precomputes irradiance at every fourth global photon when final gathering is on.
+    PhotonIntegrator(const Scene& scene, const PhotonMaps& maps);
+    ~PhotonIntegrator();
+
+    struct ThreadState {
+        std::vector<Medium::Sampler> media;
+        NeighborList neighbors;
+        uint64_t rays = 0;
+    };
+    ThreadState make_state() const;
+
+    struct Sample {
+        Color direct{0.0f}, volume_single{0.0f}, volume_multiple{0.0f}, caustic{0.0f},
+            indirect{0.0f};
+        Color beauty() const {
+            return direct + volume_single + volume_multiple + caustic + indirect;
+        }
+    };
+    /// One camera sample along ray (unit direction).
+    Sample radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
+
+    double precompute_s() const { return precompute_s_; }
+
+private:
+    struct Irradiance;
+    Color direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
+                         ThreadState& ts) const;
+    Color single_scatter(const Vec3& x, const Vec3& dir, float g, Rng& rng, ThreadState& ts) const;
+    Color shadow_transmittance(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
+    Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;
+    Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;
+    float phase_g(ThreadState& ts, const Vec3& x) const;
+
+    const Scene& scene_;
+    const PhotonMaps& maps_;
+    RayMarcher marcher_;
+    GatherRadii radii_;
+    float offset_floor_;
+    std::unique_ptr<Irradiance> irradiance_;
+    double precompute_s_ = 0.0;
+};
+
+/// Renders all AOVs with the photon integrator.
+AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
+                        bool quiet, RenderStats* stats, double* precompute_s);
+
+}  // namespace fogmap

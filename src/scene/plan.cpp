@@ -1,0 +1,175 @@
+#include "scene/plan.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+
+namespace fogmap {
+
+namespace {
+
+/// "1 shape", "3 shapes", "2 media".
+std::string count(size_t n, const char* one, const char* many) {
+    return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+PlanItem on(std::string reason) { return PlanItem{true, std::move(reason)}; }
+PlanItem off(std::string reason) { return PlanItem{false, std::move(reason)}; }
+
+/// The power-carrying quantity of each light type (DESIGN.md: a light with zero power emits
+/// nothing).
+bool emits(const LightDesc& l) {
+    switch (l.type) {
+        case LightType::Point:
+        case LightType::Spot:
+            return max_component(l.intensity) > 0.0f;
+        case LightType::Quad:
+        case LightType::Environment:
+            return max_component(l.radiance) > 0.0f;
+        case LightType::Sun:
+            return max_component(l.irradiance) > 0.0f;
+    }
+    return false;
+}
+
+bool scatters(const MediumDesc& m) {
+    return max_component(m.sigma_s) > 0.0f && m.density_scale > 0.0f;
+}
+
+bool is_diffuse(const MaterialDesc& m) {
+    return m.type == MaterialType::Diffuse && max_component(m.albedo) > 0.0f;
+}
+
+/// Glass always passes light on; a mirror only if it reflects some of it.
+bool is_specular(const MaterialDesc& m) {
+    switch (m.type) {
+        case MaterialType::Diffuse:
+            return false;
+        case MaterialType::Mirror:
+            return max_component(m.albedo) > 0.0f;
+        case MaterialType::Glass:
+            return true;
+    }
+    return false;
+}
+
+/// Shapes whose material satisfies `pred`; unknown materials count as nothing.
+template <class Pred>
+size_t count_shapes(const SceneDesc& desc, Pred pred) {
+    size_t n = 0;
+    for (const ShapeDesc& s : desc.shapes) {
+        const auto it = desc.materials.find(s.material);
+        if (it != desc.materials.end() && pred(it->second)) ++n;
+    }
+    return n;
+}
+
+std::string budget(uint64_t photons) { return "budget " + std::to_string(photons) + " photons"; }
+
+PlanItem plan_embree(const SceneDesc& desc) {
+    size_t quad_lights = 0;
+    for (const LightDesc& l : desc.lights) quad_lights += l.type == LightType::Quad ? 1 : 0;
+    if (desc.shapes.empty() && quad_lights == 0) return off("no surfaces");
+    std::string reason;
+    if (!desc.shapes.empty()) reason = count(desc.shapes.size(), "shape", "shapes");
+    if (quad_lights > 0) {
+        reason += (reason.empty() ? "" : ", ") + count(quad_lights, "quad light", "quad lights");
+    }
+    return on(reason);
+}
+
+PlanItem plan_marching(const SceneDesc& desc) {
+    if (desc.media.empty()) return off("no medium");
+    if (desc.render.integrator == Integrator::Path) {
+        return off("integrator is path: media use delta tracking");
+    }
+    // march.method picks how photons find free paths; camera rays of this integrator always march.
+    const char* how = "";
+    switch (desc.march.method) {
+        case FreePathMethod::March:
+            how = "camera rays and photon free paths march";
+            break;
+        case FreePathMethod::Delta:
+            how = "camera rays march, photon free paths use delta tracking";
+            break;
+    }
+    return on(count(desc.media.size(), "medium", "media") + "; " + how);
+}
+
+PlanItem plan_volume(const SceneDesc& desc) {
+    if (desc.media.empty()) return off("no participating medium");
+    size_t scattering = 0;
+    for (const MediumDesc& m : desc.media) scattering += scatters(m) ? 1 : 0;
+    if (scattering == 0) return off("media do not scatter");
+    if (desc.photons.volume == 0) return off("photons.volume = 0");
+    return on(count(scattering, "scattering medium", "scattering media") + ", " +
+              budget(desc.photons.volume));
+}
+
+PlanItem plan_global(const SceneDesc& desc, size_t diffuse) {
+    if (diffuse == 0) return off("no diffuse surface");
+    if (desc.photons.global == 0) return off("photons.global = 0");
+    return on(count(diffuse, "diffuse shape", "diffuse shapes") + ", " +
+              budget(desc.photons.global));
+}
+
+PlanItem plan_caustic(const SceneDesc& desc, size_t diffuse) {
+    const size_t specular = count_shapes(desc, is_specular);
+    if (specular == 0) return off("no specular surface");
+    if (diffuse == 0) return off("no diffuse surface to receive caustics");
+    if (desc.photons.caustic == 0) return off("photons.caustic = 0");
+    return on(count(specular, "specular shape", "specular shapes") + ", " +
+              count(diffuse, "diffuse receiver", "diffuse receivers") + ", " +
+              budget(desc.photons.caustic));
+}
+
+}  // namespace
+
+Plan make_plan(const SceneDesc& desc) {
+    Plan plan;
+    plan.embree_scene = plan_embree(desc);
+    plan.ray_marching = plan_marching(desc);
+
+    // Conditions shared by all maps come first, so their reason is the same for the three.
+    bool any_emits = false;
+    for (const LightDesc& l : desc.lights) any_emits = any_emits || emits(l);
+    if (desc.render.integrator == Integrator::Path) {
+        plan.volume_map = plan.global_map = plan.caustic_map = off("integrator is path");
+    } else if (!any_emits) {
+        plan.volume_map = plan.global_map = plan.caustic_map = off("no light emits power");
+    } else {
+        const size_t diffuse = count_shapes(desc, is_diffuse);
+        plan.volume_map = plan_volume(desc);
+        plan.global_map = plan_global(desc, diffuse);
+        plan.caustic_map = plan_caustic(desc, diffuse);
+    }
+    return plan;
+}
+
+std::string plan_text(const Plan& plan) {
+    const auto line = [](const char* name, const PlanItem& item, const char* on_word) {
+        return std::string(name) + ": " + (item.on ? on_word : "skipped") + " (" + item.reason +
+               ")\n";
+    };
+    return line("Embree scene", plan.embree_scene, "built") +
+           line("ray marching", plan.ray_marching, "used") +
+           line("volume map", plan.volume_map, "built") +
+           line("global map", plan.global_map, "built") +
+           line("caustic map", plan.caustic_map, "built");
+}
+
+nlohmann::json plan_json(const Plan& plan) {
+    const auto item = [](const PlanItem& i) {
+        return nlohmann::json{{"on", i.on}, {"reason", i.reason}};
+    };
+    return nlohmann::json{{"embree_scene", item(plan.embree_scene)},
+                          {"ray_marching", item(plan.ray_marching)},
+                          {"volume_map", item(plan.volume_map)},
+                          {"global_map", item(plan.global_map)},
+                          {"caustic_map", item(plan.caustic_map)}};
+}
+
+}  // namespace fogmap

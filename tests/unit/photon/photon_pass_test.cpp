@@ -1,0 +1,162 @@
+// The photon pass: maps the Plan leaves out are never allocated, results do not depend on the
+// thread count, a scene that stores nothing stops at the emission cap with a warning, and the
+// caustic map's irradiance on a wall lit through a mirror converges to the analytic E sin θ.
+
+#include "photon/photon_pass.h"
+
+#include "photon/estimators.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cstring>
+
+namespace fogmap {
+namespace {
+
+LightDesc sun(const Vec3& direction, float irradiance) {
+    LightDesc l;
+    l.type = LightType::Sun;
+    l.direction = direction;
+    l.irradiance = Color(irradiance);
+    return l;
+}
+
+ShapeDesc quad(const Vec3& corner, const Vec3& u, const Vec3& v, const std::string& material) {
+    ShapeDesc s;
+    s.type = ShapeType::Quad;
+    s.corner = corner;
+    s.edge_u = u;
+    s.edge_v = v;
+    s.material = material;
+    return s;
+}
+
+MediumDesc fog_box() {
+    MediumDesc m;
+    m.type = MediumType::Homogeneous;
+    m.bounds = Box3{Vec3(-1.0f), Vec3(1.0f)};
+    m.sigma_s = Color(1.0f);
+    m.sigma_a = Color(0.1f);
+    return m;
+}
+
+TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
+    SceneDesc d;  // smoke only: a medium under a sun, no surfaces
+    d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), 2.0f));
+    d.media.push_back(fog_box());
+    d.photons.volume = 1000;
+    const Plan plan = make_plan(d);
+    const auto scene = load_scene(d);
+    ASSERT_FALSE(plan.global_map.on);
+    ASSERT_FALSE(plan.caustic_map.on);
+    EXPECT_EQ(scene->surfaces, nullptr);  // no Embree scene either
+    const PhotonPassResult r = trace_photons(*scene, plan, true);
+    EXPECT_FALSE(r.global.has_value());
+    EXPECT_FALSE(r.caustic.has_value());
+    ASSERT_TRUE(r.volume.has_value());
+    EXPECT_GE(r.volume->photons.size(), 1000u);
+
+    d.photons.volume = 0;  // budget 0: the plan turns the map off and nothing is traced
+    const Plan off = make_plan(d);
+    EXPECT_FALSE(off.volume_map.on);
+    const PhotonPassResult none = trace_photons(*load_scene(d), off, true);
+    EXPECT_FALSE(none.volume.has_value());
+    EXPECT_EQ(none.emitted, 0u);
+}
+
+TEST(PhotonPass, OneAndTwoThreadsStoreIdenticalPhotons) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.1f), 2.0f));
+    d.materials["floor"] = MaterialDesc{};
+    d.shapes.push_back(
+        quad(Vec3(-3.0f, -1.0f, -3.0f), Vec3(0.0f, 0.0f, 6.0f), Vec3(6.0f, 0.0f, 0.0f), "floor"));
+    d.media.push_back(fog_box());
+    d.photons.volume = 20000;
+    d.photons.global = 5000;
+    const auto scene = load_scene(d);
+    const Plan plan = make_plan(d);
+    PhotonPassResult one, two;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = trace_photons(*scene, plan, true);
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        two = trace_photons(*scene, plan, true);
+    }
+    for (auto [a, b] : {std::pair{&one.volume, &two.volume}, std::pair{&one.global, &two.global}}) {
+        ASSERT_TRUE(a->has_value() && b->has_value());
+        ASSERT_EQ((*a)->photons.size(), (*b)->photons.size());
+        EXPECT_EQ(0, std::memcmp((*a)->photons.data(), (*b)->photons.data(),
+                                 (*a)->photons.size() * sizeof(Photon)));
+        EXPECT_EQ((*a)->emitted, (*b)->emitted);
+    }
+}
+
+TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
+    // A sun over a lone floor: every photon's first hit is direct light (not stored) and the
+    // bounce escapes to the sky, so the global map never fills.
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), 1.0f));
+    d.materials["floor"] = MaterialDesc{};
+    d.shapes.push_back(
+        quad(Vec3(-1.0f, 0.0f, -1.0f), Vec3(0.0f, 0.0f, 2.0f), Vec3(2.0f, 0.0f, 0.0f), "floor"));
+    d.photons.global = 100;
+    d.photons.max_emitted = 50000;
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), true);
+    EXPECT_EQ(r.emitted, 50000u);
+    ASSERT_TRUE(r.global.has_value());
+    EXPECT_EQ(r.global->photons.size(), 0u);
+    ASSERT_EQ(r.warnings.size(), 1u);
+    EXPECT_NE(r.warnings[0].find("global map: 0 of 100"), std::string::npos) << r.warnings[0];
+}
+
+// A sun at 45° over a mirror floor; the reflected beam lights a vertical diffuse wall (normal −x)
+// with irradiance E · cos(angle to the wall normal) = E sin θ. Only L S D photons reach the
+// caustic map, so its disc estimate (fixed radius, k unbounded) must converge to E sin θ.
+TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
+    const float theta = 45.0f * kPi / 180.0f, E = 2.0f, r = 1.0f;
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(std::sin(theta), -std::cos(theta), 0.0f), E));
+    d.materials["mirror"] = MaterialDesc{MaterialType::Mirror, Color(1.0f), 1.5f};
+    d.materials["wall"] = MaterialDesc{MaterialType::Diffuse, Color(0.5f), 1.5f};
+    d.shapes.push_back(quad(Vec3(-20.0f, 0.0f, -10.0f), Vec3(0.0f, 0.0f, 20.0f),
+                            Vec3(25.0f, 0.0f, 0.0f), "mirror"));
+    d.shapes.push_back(
+        quad(Vec3(5.0f, 0.0f, -10.0f), Vec3(0.0f, 0.0f, 20.0f), Vec3(0.0f, 10.0f, 0.0f), "wall"));
+    d.photons.global = 0;
+    const double expected = E * std::sin(theta);
+    double previous_error = 1e30;
+    for (uint64_t n : {4000u, 16000u, 64000u}) {
+        d.photons.caustic = n;
+        const auto scene = load_scene(d);
+        PhotonMaps maps = build_trees(trace_photons(*scene, make_plan(d), true));
+        ASSERT_TRUE(maps.caustic.has_value());
+        NeighborList scratch;
+        double error = 0.0, sum = 0.0;
+        int count = 0;
+        for (float y : {3.0f, 5.0f, 7.0f}) {
+            for (float z : {-4.0f, 0.0f, 4.0f}) {
+                const Vec3 x(5.0f, y, z);
+                const Color e = surface_irradiance(*maps.caustic, x, Vec3(-1.0f, 0.0f, 0.0f),
+                                                   1 << 30, r, 0.0f, 0, scratch);
+                error += std::abs(e.x - expected);
+                sum += e.x;
+                count += static_cast<int>(scratch.size());
+            }
+        }
+        error /= 9.0;
+        // Fixed seed; 4x the photons halves the expected (Poisson) error.
+        EXPECT_LT(error, previous_error) << n << " photons";
+        previous_error = error;
+        if (n == 64000u) {
+            // Poisson: the relative standard error of the mean is 1/sqrt(photons counted).
+            const double se = expected / std::sqrt(static_cast<double>(count));
+            EXPECT_NEAR(sum / 9.0, expected, 3.0 * se) << count << " photons in the discs";
+        }
+    }
+}
+
+}  // namespace
+}  // namespace fogmap

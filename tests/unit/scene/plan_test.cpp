@@ -1,0 +1,251 @@
+#include "scene/plan.h"
+
+#include "scene/scene_desc_json.h"
+
+#include <gtest/gtest.h>
+
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+using nlohmann::json;
+
+/// A validated description from scene-file text (no file is opened: the plan needs none).
+SceneDesc scene(const json& doc) {
+    SceneDesc desc = scene_desc_from_json(doc, "scene.json");
+    validate(desc);
+    return desc;
+}
+
+/// The full scene of the tests below: a floor, a glass sphere, fog and a point light.
+json glass_floor_fog() {
+    return json::parse(R"({
+      "lights": [{"type": "point", "intensity": 50, "position": [0, 4, 0]}],
+      "materials": {"floor": {"type": "diffuse", "albedo": 0.7},
+                    "glass": {"type": "glass", "ior": 1.5}},
+      "shapes": [
+        {"type": "quad", "material": "floor", "corner": [-5, 0, -5], "edge_u": [10, 0, 0],
+         "edge_v": [0, 0, 10]},
+        {"type": "sphere", "material": "glass", "center": [0, 1, 0], "radius": 0.5}
+      ],
+      "media": [{"type": "homogeneous", "bounds": {"min": [-5, 0, -5], "max": [5, 3, 5]},
+                 "sigma_s": 0.05, "sigma_a": 0.01}]
+    })");
+}
+
+/// A VDB smoke lit by one point light; no surfaces at all.
+json smoke_only() {
+    return json::parse(R"({
+      "lights": [{"type": "point", "intensity": 20, "position": [0, 4, 0]}],
+      "media": [{"type": "vdb", "file": "smoke.vdb", "sigma_s": [1, 1, 1], "sigma_a": 0.1}]
+    })");
+}
+
+std::vector<std::string> lines(const std::string& text) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) out.push_back(line);
+    return out;
+}
+
+/// plan_text's line for one item; the order is fixed: Embree, marching, volume, global, caustic.
+enum Line { kEmbree = 0, kMarching, kVolume, kGlobal, kCaustic };
+std::string line(const Plan& plan, Line which) {
+    const std::vector<std::string> all = lines(plan_text(plan));
+    return all.size() == 5 ? all[size_t(which)] : "plan_text has " + std::to_string(all.size());
+}
+
+TEST(Plan, SmokeOnlyHasNoSurfaceMapsAndNoEmbreeScene) {
+    const Plan p = make_plan(scene(smoke_only()));
+    EXPECT_FALSE(p.embree_scene.on);
+    EXPECT_EQ(line(p, kEmbree), "Embree scene: skipped (no surfaces)");
+    EXPECT_TRUE(p.ray_marching.on);
+    EXPECT_EQ(line(p, kMarching),
+              "ray marching: used (1 medium; camera rays and photon free paths march)");
+    EXPECT_TRUE(p.volume_map.on);
+    EXPECT_EQ(line(p, kVolume), "volume map: built (1 scattering medium, budget 100000 photons)");
+    EXPECT_FALSE(p.global_map.on);
+    EXPECT_EQ(line(p, kGlobal), "global map: skipped (no diffuse surface)");
+    EXPECT_FALSE(p.caustic_map.on);
+    EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (no specular surface)");
+}
+
+TEST(Plan, NoGlassOrMirrorMeansNoCausticMap) {
+    json doc = glass_floor_fog();
+    doc["shapes"].erase(1);
+    doc["materials"].erase("glass");
+    const Plan p = make_plan(scene(doc));
+    EXPECT_FALSE(p.caustic_map.on);
+    EXPECT_FALSE(bool(p.caustic_map));  // passes write `if (!plan.caustic_map) return;`
+    EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (no specular surface)");
+    EXPECT_TRUE(p.global_map.on);
+    EXPECT_EQ(line(p, kGlobal), "global map: built (1 diffuse shape, budget 100000 photons)");
+
+    // A mirror that reflects nothing is not specular either.
+    doc["materials"]["black_mirror"] = json::parse(R"({"type": "mirror", "albedo": 0})");
+    doc["shapes"].push_back(json::parse(R"({"type": "sphere", "material": "black_mirror"})"));
+    EXPECT_EQ(line(make_plan(scene(doc)), kCaustic), "caustic map: skipped (no specular surface)");
+    doc["materials"]["black_mirror"]["albedo"] = json::array({0, 0, 0.5});
+    EXPECT_EQ(line(make_plan(scene(doc)), kCaustic),
+              "caustic map: built (1 specular shape, 1 diffuse receiver, budget 50000 photons)");
+}
+
+TEST(Plan, SpecularSurfaceWithoutDiffuseReceiverHasNoCausticMap) {
+    json doc = glass_floor_fog();
+    doc["materials"]["floor"]["albedo"] = 0;  // a black floor receives nothing
+    const Plan p = make_plan(scene(doc));
+    EXPECT_FALSE(p.caustic_map.on);
+    EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (no diffuse surface to receive caustics)");
+    EXPECT_FALSE(p.global_map.on);
+    EXPECT_EQ(line(p, kGlobal), "global map: skipped (no diffuse surface)");
+    EXPECT_TRUE(p.embree_scene.on);  // the surfaces are still there to be hit
+}
+
+TEST(Plan, ZeroVolumeBudgetSkipsTheVolumeMap) {
+    json doc = glass_floor_fog();
+    doc["photons"] = json{{"volume", 0}};
+    const Plan p = make_plan(scene(doc));
+    EXPECT_FALSE(p.volume_map.on);
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (photons.volume = 0)");
+    EXPECT_TRUE(p.ray_marching.on);  // camera rays still march through the fog
+    EXPECT_TRUE(p.global_map.on);
+    EXPECT_TRUE(p.caustic_map.on);
+
+    doc["photons"] = json{{"global", 0}, {"caustic", 0}};
+    const Plan q = make_plan(scene(doc));
+    EXPECT_TRUE(q.volume_map.on);
+    EXPECT_EQ(line(q, kGlobal), "global map: skipped (photons.global = 0)");
+    EXPECT_EQ(line(q, kCaustic), "caustic map: skipped (photons.caustic = 0)");
+}
+
+TEST(Plan, MediaThatDoNotScatterGetNoVolumeMap) {
+    json doc = glass_floor_fog();
+    doc["media"][0]["sigma_s"] = 0;  // absorbing only
+    Plan p = make_plan(scene(doc));
+    EXPECT_FALSE(p.volume_map.on);
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (media do not scatter)");
+    EXPECT_TRUE(p.ray_marching.on);
+
+    doc["media"][0]["sigma_s"] = 0.05;
+    doc["media"][0]["density_scale"] = 0;
+    p = make_plan(scene(doc));
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (media do not scatter)");
+
+    doc.erase("media");
+    p = make_plan(scene(doc));
+    EXPECT_FALSE(p.volume_map.on);
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (no participating medium)");
+    EXPECT_FALSE(p.ray_marching.on);
+    EXPECT_EQ(line(p, kMarching), "ray marching: skipped (no medium)");
+}
+
+TEST(Plan, ZeroPowerLightsBuildNoMaps) {
+    // Each light type's own power quantity decides; the others keep their defaults (1), so a
+    // rule reading the wrong field would see power here.
+    json doc = glass_floor_fog();
+    doc["lights"] = json::parse(R"([
+      {"type": "point", "intensity": 0},
+      {"type": "spot", "intensity": [0, 0, 0]},
+      {"type": "quad", "radiance": 0},
+      {"type": "sun", "irradiance": 0},
+      {"type": "environment", "radiance": 0}
+    ])");
+    const Plan p = make_plan(scene(doc));
+    for (const PlanItem* item : {&p.volume_map, &p.global_map, &p.caustic_map}) {
+        EXPECT_FALSE(item->on);
+        EXPECT_EQ(item->reason, "no light emits power");
+    }
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (no light emits power)");
+    EXPECT_EQ(line(p, kGlobal), "global map: skipped (no light emits power)");
+    EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (no light emits power)");
+    EXPECT_TRUE(p.embree_scene.on);
+    EXPECT_TRUE(p.ray_marching.on);
+
+    // One channel of one light is enough, whatever its type.
+    for (const char* light :
+         {R"({"type": "spot", "intensity": [0, 0.5, 0]})",
+          R"({"type": "quad", "radiance": [0, 0, 2]})", R"({"type": "sun", "irradiance": 3})",
+          R"({"type": "environment", "radiance": 0.1})"}) {
+        json lit = doc;
+        lit["lights"].push_back(json::parse(light));
+        const Plan q = make_plan(scene(lit));
+        EXPECT_TRUE(q.volume_map.on) << light;
+        EXPECT_TRUE(q.global_map.on) << light;
+        EXPECT_TRUE(q.caustic_map.on) << light;
+    }
+
+    doc.erase("lights");  // no light at all
+    EXPECT_EQ(line(make_plan(scene(doc)), kGlobal), "global map: skipped (no light emits power)");
+}
+
+TEST(Plan, PathIntegratorBuildsNoMapsAndDoesNotMarch) {
+    json doc = glass_floor_fog();
+    doc["render"] = json{{"integrator", "path"}};
+    const Plan p = make_plan(scene(doc));
+    EXPECT_TRUE(p.embree_scene.on);
+    EXPECT_FALSE(p.ray_marching.on);
+    EXPECT_EQ(line(p, kMarching),
+              "ray marching: skipped (integrator is path: media use delta tracking)");
+    EXPECT_FALSE(p.volume_map.on);
+    EXPECT_EQ(line(p, kVolume), "volume map: skipped (integrator is path)");
+    EXPECT_FALSE(p.global_map.on);
+    EXPECT_EQ(line(p, kGlobal), "global map: skipped (integrator is path)");
+    EXPECT_FALSE(p.caustic_map.on);
+    EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (integrator is path)");
+}
+
+TEST(Plan, GlassFloorAndFogTurnEverythingOn) {
+    const Plan p = make_plan(scene(glass_floor_fog()));
+    EXPECT_TRUE(p.embree_scene.on);
+    EXPECT_TRUE(p.ray_marching.on);
+    EXPECT_TRUE(p.volume_map.on);
+    EXPECT_TRUE(p.global_map.on);
+    EXPECT_TRUE(p.caustic_map.on);
+    EXPECT_EQ(plan_text(p),
+              "Embree scene: built (2 shapes)\n"
+              "ray marching: used (1 medium; camera rays and photon free paths march)\n"
+              "volume map: built (1 scattering medium, budget 100000 photons)\n"
+              "global map: built (1 diffuse shape, budget 100000 photons)\n"
+              "caustic map: built (1 specular shape, 1 diffuse receiver, budget 50000 photons)\n");
+}
+
+TEST(Plan, MarchingReasonNamesTheFreePathMethod) {
+    json doc = glass_floor_fog();
+    doc["march"] = json{{"method", "delta"}};
+    const Plan p = make_plan(scene(doc));
+    EXPECT_TRUE(p.ray_marching.on);
+    EXPECT_EQ(line(p, kMarching),
+              "ray marching: used (1 medium; camera rays march, photon free paths use delta "
+              "tracking)");
+}
+
+TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
+    // An area light is geometry the camera can hit, even without any shape.
+    const Plan p = make_plan(scene(json::parse(R"({
+      "lights": [{"type": "quad", "corner": [0, 2, 0], "radiance": 1},
+                 {"type": "quad", "corner": [1, 2, 0], "radiance": 1}]})")));
+    EXPECT_TRUE(p.embree_scene.on);
+    EXPECT_EQ(line(p, kEmbree), "Embree scene: built (2 quad lights)");
+
+    json doc = glass_floor_fog();
+    doc["lights"].push_back(json::parse(R"({"type": "quad", "corner": [0, 2, 0]})"));
+    EXPECT_EQ(line(make_plan(scene(doc)), kEmbree), "Embree scene: built (2 shapes, 1 quad light)");
+}
+
+TEST(Plan, JsonHasOneEntryPerItem) {
+    const Plan p = make_plan(scene(smoke_only()));
+    const json j = plan_json(p);
+    EXPECT_EQ(j, json::parse(R"({
+      "embree_scene": {"on": false, "reason": "no surfaces"},
+      "ray_marching": {"on": true, "reason": "1 medium; camera rays and photon free paths march"},
+      "volume_map": {"on": true, "reason": "1 scattering medium, budget 100000 photons"},
+      "global_map": {"on": false, "reason": "no diffuse surface"},
+      "caustic_map": {"on": false, "reason": "no specular surface"}
+    })"));
+}
+
+}  // namespace
+}  // namespace fogmap
