@@ -5,17 +5,12 @@
 #include "core/timer.h"
 #include "media/density_grid.h"
 #include "media/volume_gen.h"
-#include "photon/photon_pass.h"
 #include "render/metrics.h"
-#include "render/path_tracer.h"
-#include "render/photon_integrator.h"
+#include "render/pipeline.h"
 #include "render/report.h"
-#include "scene/plan.h"
-#include "scene/scene.h"
+
 #include "scene/scene_desc_json.h"
 
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
@@ -73,8 +68,6 @@ int run_render(const RenderArgs& args) {
     if (!has_extension(png, ".png"))
         throw InputError("", "--png", "'" + png + "' does not end in .png; expected a .png path");
 
-    Report report;
-    Timer timer;
     // Read the reference first: a bad reference fails before any work.
     Image reference;
     if (!args.reference.empty()) reference = read_exr(args.reference);
@@ -86,48 +79,10 @@ int run_render(const RenderArgs& args) {
                              std::to_string(reference.height) + ", the camera renders " +
                              std::to_string(desc.camera.width) + "x" +
                              std::to_string(desc.camera.height));
-    const Plan plan = make_plan(desc);
-    report.plan_text = plan_text(plan);
-    report.plan = plan_json(plan);
-    if (!args.quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
-    const std::unique_ptr<Scene> scene = load_scene(desc);
-    report.phases_s.emplace_back("load", timer.seconds());
+    PipelineResult run = run_pipeline(desc, args.quiet);
+    Report& report = run.report;
+    const Image& image = run.aov.beauty;
 
-    // One thread limit for every parallel phase of this run.
-    const int threads =
-        desc.render.threads > 0 ? desc.render.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    RenderStats stats;
-    Image beauty;
-    AovImages aov;
-    std::vector<NamedImage> layers;
-    if (desc.render.integrator == Integrator::Photon) {
-        PhotonPassResult pass = trace_photons(*scene, plan, args.quiet);
-        for (const std::string& w : pass.warnings)
-            std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
-        report.phases_s.emplace_back("photon pass", pass.time_s);
-        report.photons_emitted = pass.emitted;
-        const PhotonMaps maps = build_trees(std::move(pass));
-        const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
-            {"global", &maps.global}, {"caustic", &maps.caustic}, {"volume", &maps.volume}};
-        for (const auto& [name, map] : named) {
-            if (!*map) continue;
-            report.maps.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
-                                   (*map)->build_s});
-            report.phases_s.emplace_back(std::string("build ") + name, (*map)->build_s);
-        }
-        double precompute_s = 0.0;
-        aov = render_photon(*scene, maps, desc.render, args.quiet, &stats, &precompute_s);
-        if (precompute_s > 0.0) report.phases_s.emplace_back("irradiance precompute", precompute_s);
-        report.phases_s.emplace_back("render", stats.render_s);
-        layers = aov.layers();
-    } else {
-        beauty = render_path(*scene, desc.render, args.quiet, &stats);
-        report.phases_s.emplace_back("render", stats.render_s);
-    }
-    const Image& image = desc.render.integrator == Integrator::Photon ? aov.beauty : beauty;
-
-    report.mean = image.mean();
     if (!args.reference.empty()) {
         const ImageError e = image_error(image, reference);
         report.reference = args.reference;
@@ -136,23 +91,13 @@ int run_render(const RenderArgs& args) {
         report.bias = e.bias;
     }
 
-    timer.reset();
+    const Timer timer;
     make_parent_dir(exr);
     make_parent_dir(png);
-    write_exr(exr, image, layers);
+    write_exr(exr, image, run.layered ? run.aov.layers() : std::vector<NamedImage>{});
     write_png(png, image, args.exposure);
     report.phases_s.emplace_back("write", timer.seconds());
 
-    report.scene = args.scene;
-    report.settings = settings_json(desc);
-    report.width = image.width;
-    report.height = image.height;
-    report.spp = desc.render.spp;
-    report.threads = stats.threads;
-    report.samples = stats.samples;
-    report.rays = stats.rays;
-    report.nonfinite = stats.nonfinite;
-    report.render_s = stats.render_s;
     report.outputs = {exr, png};
     if (args.json)
         std::cout << report_json(report).dump(2) << "\n";

@@ -117,7 +117,16 @@ Color PhotonIntegrator::direct_surface(const Vec3& p, const Vec3& n, const Color
     const Vec3 origin = offset_point(p, n, offset_floor_);
     Color sum(0.0f);
     for (const Light& light : scene_.lights) {
-        const LightSample s = sample_light(light, origin, Vec2(rng.uniform(), rng.uniform()));
+        const Vec2 u(rng.uniform(), rng.uniform());
+        LightSample s;
+        if (light.type == LightType::Environment) {
+            // A constant sky seen from a surface: cosine sampling matches the integrand.
+            s.wi = sample_cosine_hemisphere(n, u);
+            s.Li = light.radiance;
+            s.pdf = std::max(glm::dot(n, s.wi), 0.0f) * kInvPi;
+        } else {
+            s = sample_light(light, origin, u);
+        }
         const float cos = glm::dot(n, s.wi);
         if (s.pdf <= 0.0f || cos <= 0.0f || max_component(s.Li) <= 0.0f) continue;
         const Color T = shadow_transmittance(Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f), rng, ts);
@@ -192,6 +201,42 @@ Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
     return sum / static_cast<float>(rays);
 }
 
+void PhotonIntegrator::light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, Sample* out) const {
+    // Single scattering: shadow rays at every step (a spot light's shaft is narrow).
+    for (const LitStep& st : ts.steps)
+        out->volume_single +=
+            st.weight * st.sigma_s * single_scatter(st.x, dir, phase_g(ts, st.x), rng, ts);
+    if (!maps_.volume) return;
+    const SceneDesc& desc = scene_.desc;
+    auto gather = [&](const LitStep& st, float factor) {
+        out->volume_multiple += factor * st.weight *
+                                volume_inscattered(*maps_.volume, st.x, -dir, phase_g(ts, st.x),
+                                                   desc.volume.k, radii_.volume, ts.neighbors);
+    };
+    const size_t n = ts.steps.size(), m = static_cast<size_t>(desc.volume.lookups_per_ray);
+    if (m == 0 || n <= m) {
+        for (const LitStep& st : ts.steps) gather(st, 1.0f);
+        return;
+    }
+    // Multiple scattering (smooth along the ray): m volume-map lookups at steps drawn by
+    // stratified importance sampling ∝ q_k = luminance(weight · σ_s), each weighted Q / (m q_k),
+    // so the expectation is the full march sum.
+    double total = 0.0;
+    for (const LitStep& st : ts.steps) total += luminance(st.weight * st.sigma_s);
+    if (!(total > 0.0)) return;
+    size_t k = 0;
+    double cumulative = luminance(ts.steps[0].weight * ts.steps[0].sigma_s);
+    for (size_t j = 0; j < m; ++j) {
+        const double target = (j + rng.uniform()) * total / m;
+        while (cumulative < target && k + 1 < n) {
+            ++k;
+            cumulative += luminance(ts.steps[k].weight * ts.steps[k].sigma_s);
+        }
+        const double q = luminance(ts.steps[k].weight * ts.steps[k].sigma_s);
+        if (q > 0.0) gather(ts.steps[k], static_cast<float>(total / (m * q)));
+    }
+}
+
 PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng,
                                                     ThreadState& ts) const {
     Sample out;
@@ -208,20 +253,16 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
         }
         if (!ts.media.empty()) {
             Color tau(0.0f);
+            ts.steps.clear();
             marcher_.march(ts.media, ray, t_max, rng.uniform(), [&](const MarchStep& s) {
                 const float h = s.t1 - s.t0;
-                const Color w = beta * exp_neg(tau) * step_weight(s.sigma_t, h);
+                if (max_component(s.sigma_s) > 0.0f)
+                    ts.steps.push_back(
+                        {s.x, beta * exp_neg(tau) * step_weight(s.sigma_t, h), s.sigma_s});
                 tau += s.sigma_t * h;
-                if (max_component(s.sigma_s) > 0.0f) {
-                    const float g = phase_g(ts, s.x);
-                    out.volume_single += w * s.sigma_s * single_scatter(s.x, ray.d, g, rng, ts);
-                    if (maps_.volume)
-                        out.volume_multiple +=
-                            w * volume_inscattered(*maps_.volume, s.x, -ray.d, g, desc.volume.k,
-                                                   radii_.volume, ts.neighbors);
-                }
                 return max_component(exp_neg(tau)) > 1e-6f;  // nothing visible beyond
             });
+            light_steps(ray.d, rng, ts, &out);
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }

@@ -4,7 +4,9 @@
 // by ratio tracking), caustics from the caustic map and indirect diffuse light from the global
 // map, shown directly or through final gathering with irradiance precomputed at photon positions
 // (Christensen 1999). Along the way camera rays march through media (same step settings as the
-// photon pass): single scattering from shadow rays, multiple scattering from the volume map.
+// photon pass): single scattering from shadow rays at every step, multiple scattering from the
+// volume map at volume.lookups_per_ray steps drawn by stratified importance sampling of the
+// march's weights (every step when 0).
 // Each term goes to its own AOV. Deterministic per seed: pixel (x, y), sample s draws from
 // Rng(seed, y*width+x, s).
 
@@ -34,9 +36,16 @@ public:
     PhotonIntegrator(const Scene& scene, const PhotonMaps& maps);
     ~PhotonIntegrator();
 
+    /// A march step where light can scatter towards the camera.
+    struct LitStep {
+        Vec3 x;
+        Color weight;  ///< throughput × transmittance × ∫ over the step of e^{−σ_t s} ds
+        Color sigma_s;
+    };
     struct ThreadState {
         std::vector<Medium::Sampler> media;
         NeighborList neighbors;
+        std::vector<LitStep> steps;
         uint64_t rays = 0;
     };
     ThreadState make_state() const;
@@ -58,6 +67,7 @@ private:
     Color direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
                          ThreadState& ts) const;
     Color single_scatter(const Vec3& x, const Vec3& dir, float g, Rng& rng, ThreadState& ts) const;
+    void light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, Sample* out) const;
     Color shadow_transmittance(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;
     Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;

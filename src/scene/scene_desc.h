@@ -127,6 +127,10 @@ struct VolumeGatherSettings {
     int k = 50;
     float radius = 0.0f;  ///< max radius, world units; 0 = 5% of the media diagonal
     VolumeEstimator estimator = VolumeEstimator::Sphere;
+    /// Volume-map lookups per camera ray: at steps drawn by stratified importance sampling of
+    /// the march's weights and reweighted, so the march sum stays unbiased; 0 = every step.
+    /// (Single scattering takes its shadow rays at every step.)
+    int lookups_per_ray = 8;
 };
 
 struct SceneDesc {

@@ -172,6 +172,7 @@ void volume_fields(G& g, V& v) {
     v.value("k", g.k);
     v.value("radius", g.radius);
     v.choice("estimator", g.estimator, kVolumeEstimators, "volume estimator");
+    v.value("lookups_per_ray", g.lookups_per_ray);
 }
 
 template <class M, class V>

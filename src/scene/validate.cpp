@@ -377,6 +377,7 @@ void check_gather(const SceneDesc& desc) {
         const Checker k(desc, "/volume");
         k.int_range("k", v.k, 1, kMaxGatherK);
         k.non_negative("radius", v.radius);
+        k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
     }
 }
 

@@ -111,7 +111,9 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
             const double se_pm = std::sqrt((sum2 / kSeeds - mean * mean) / (kSeeds - 1));
             const double se =
                 std::sqrt(se_pm * se_pm + ref[i].standard_error * ref[i].standard_error);
-            if (n == 80000u) EXPECT_NEAR(mean, ref[i].mean, 3.0 * se) << "point " << i;
+            if (n == 80000u) {
+                EXPECT_NEAR(mean, ref[i].mean, 3.0 * se) << "point " << i;
+            }
         }
         error /= points.size() * kSeeds;
         // 8x the photons: the expected error of one map falls by sqrt(8) ≈ 2.8.

@@ -1,0 +1,71 @@
+#include "render/pipeline.h"
+
+#include "core/timer.h"
+#include "photon/photon_pass.h"
+#include "render/path_tracer.h"
+#include "scene/plan.h"
+#include "scene/scene.h"
+#include "scene/scene_desc_json.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <cstdio>
+
+namespace fogmap {
+
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet) {
+    PipelineResult out;
+    Report& report = out.report;
+    const Timer timer;
+    const Plan plan = make_plan(desc);
+    report.plan_text = plan_text(plan);
+    report.plan = plan_json(plan);
+    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
+    const std::unique_ptr<Scene> scene = load_scene(desc);
+    report.phases_s.emplace_back("load", timer.seconds());
+
+    // One thread limit for every parallel phase of this run.
+    const int threads =
+        desc.render.threads > 0 ? desc.render.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    RenderStats stats;
+    if (desc.render.integrator == Integrator::Photon) {
+        PhotonPassResult pass = trace_photons(*scene, plan, quiet);
+        for (const std::string& w : pass.warnings)
+            if (!quiet) std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
+        report.phases_s.emplace_back("photon pass", pass.time_s);
+        report.photons_emitted = pass.emitted;
+        const PhotonMaps maps = build_trees(std::move(pass));
+        const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
+            {"global", &maps.global}, {"caustic", &maps.caustic}, {"volume", &maps.volume}};
+        for (const auto& [name, map] : named) {
+            if (!*map) continue;
+            report.maps.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
+                                   (*map)->build_s});
+            report.phases_s.emplace_back(std::string("build ") + name, (*map)->build_s);
+        }
+        double precompute_s = 0.0;
+        out.aov = render_photon(*scene, maps, desc.render, quiet, &stats, &precompute_s);
+        if (precompute_s > 0.0) report.phases_s.emplace_back("irradiance precompute", precompute_s);
+        out.layered = true;
+    } else {
+        out.aov.beauty = render_path(*scene, desc.render, quiet, &stats);
+    }
+    report.phases_s.emplace_back("render", stats.render_s);
+
+    report.scene = desc.path;
+    report.settings = settings_json(desc);
+    report.width = out.aov.beauty.width;
+    report.height = out.aov.beauty.height;
+    report.spp = desc.render.spp;
+    report.threads = stats.threads;
+    report.samples = stats.samples;
+    report.rays = stats.rays;
+    report.nonfinite = stats.nonfinite;
+    report.render_s = stats.render_s;
+    report.mean = out.aov.beauty.mean();
+    return out;
+}
+
+}  // namespace fogmap

@@ -1,0 +1,22 @@
+#pragma once
+// The whole run of one scene description (DESIGN.md, Pipeline): Plan → load → photon pass →
+// kd-trees → render, timed by phase, with no files written. `fogmap render` and `fogmap bench`
+// both call it, so every run is measured the same way.
+
+#include "render/photon_integrator.h"
+#include "render/report.h"
+#include "scene/scene_desc.h"
+
+namespace fogmap {
+
+struct PipelineResult {
+    AovImages aov;         ///< beauty always; the other layers only for the photon integrator
+    bool layered = false;  ///< aov holds AOV layers
+    Report report;         ///< plan, settings, phases, maps, stats, image mean
+};
+
+/// Runs `desc` with desc.render.threads threads. Progress and warnings on stderr unless quiet.
+/// Throws InputError for unreadable scene data (meshes, VDB files).
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet);
+
+}  // namespace fogmap
