@@ -98,7 +98,7 @@ json full_scene() {
                   "max_bounces": 7},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
-      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere"},
+      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01}
     })");
 }
@@ -160,6 +160,7 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.caustic.cone_filter, 1.5f);
     EXPECT_EQ(d.volume.k, 30);
     EXPECT_EQ(d.volume.radius, 0.25f);
+    EXPECT_EQ(d.volume.lookups_per_ray, 5);
     EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
     EXPECT_EQ(d.march.method, FreePathMethod::Delta);
     EXPECT_EQ(d.march.step_voxels, 0.5f);
@@ -248,7 +249,7 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
 
     const InputError volume = parse_error(json::parse(R"({"volume": {"kk": 64}})"));
     EXPECT_EQ(volume.field, "/volume/kk");
-    EXPECT_EQ(volume.reason, "unknown key 'kk'; known keys: estimator, k, radius");
+    EXPECT_EQ(volume.reason, "unknown key 'kk'; known keys: estimator, k, lookups_per_ray, radius");
 
     const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
     EXPECT_EQ(photons.field, "/photons/surface");
