@@ -3,8 +3,14 @@
 // exit codes (InputError → 2). Each returns the process exit code.
 
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
+
+namespace CLI {
+class App;
+}
 
 namespace fogmap {
 
@@ -31,5 +37,17 @@ struct VolumeArgs {
 };
 
 int run_volume(const VolumeArgs& args);
+
+/// A subcommand registered by its own file: when `app` was chosen on the command line, main
+/// calls `run` and exits with its result (InputError → 2 as everywhere).
+struct Subcommand {
+    CLI::App* app;
+    std::function<int()> run;
+};
+
+/// `fogmap validate slab ...` (app/validate_command.cpp).
+Subcommand add_validate_command(CLI::App& app);
+/// `fogmap bench SCENE ...` (app/bench_command.cpp).
+Subcommand add_bench_command(CLI::App& app);
 
 }  // namespace fogmap

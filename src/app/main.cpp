@@ -1,4 +1,4 @@
-// fogmap command line: render, info, volume. Parses arguments with CLI11 and maps failures to
+// fogmap command line: render, info, volume, validate, bench. Parses arguments with CLI11 and maps failures to
 // exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else.
 
 #include "app/commands.h"
@@ -45,6 +45,8 @@ int main(int argc, char** argv) {
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
     vol->add_option("--seed", volume.seed, "noise seed");
 
+    const Subcommand extra[] = {add_validate_command(app), add_bench_command(app)};
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -64,6 +66,8 @@ int main(int argc, char** argv) {
         }
         if (*info) return run_info(info_path, info_json);
         if (*vol) return run_volume(volume);
+        for (const Subcommand& sub : extra)
+            if (*sub.app) return sub.run();
     } catch (const InputError& e) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 2;
