@@ -1,0 +1,215 @@
+#include "render/bench.h"
+
+#include "core/timer.h"
+#include "render/metrics.h"
+#include "render/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <sstream>
+
+namespace fogmap {
+
+namespace {
+
+std::string csv_field(const std::string& s) {
+    if (s.find_first_of(",\"\n") == std::string::npos) return s;
+    std::string out = "\"";
+    for (char c : s) {
+        if (c == '"') out += '"';
+        out += c;
+    }
+    return out + "\"";
+}
+
+std::string number(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+std::string padded(const std::string& s, size_t width) {
+    return s.size() >= width ? s + " " : s + std::string(width - s.size(), ' ');
+}
+
+/// relMSE of the path tracer at `time_s`, interpolated linearly in log-log between the path rows
+/// (sorted by time) and extrapolated with the nearest segment's slope outside them; sets
+/// *extrapolated. NaN if there are no usable path rows.
+double path_error_at(const std::vector<const BenchRow*>& path, double time_s, bool* extrapolated) {
+    *extrapolated = false;
+    std::vector<const BenchRow*> p;
+    for (const BenchRow* r : path)
+        if (r->total_s > 0.0 && r->rel_mse > 0.0) p.push_back(r);
+    if (p.empty()) return std::nan("");
+    if (p.size() == 1) {
+        *extrapolated = time_s != p[0]->total_s;
+        return p[0]->rel_mse;
+    }
+    size_t i = 0;  // segment [i, i+1]
+    while (i + 2 < p.size() && time_s > p[i + 1]->total_s) ++i;
+    *extrapolated = time_s < p.front()->total_s || time_s > p.back()->total_s;
+    const double x0 = std::log(p[i]->total_s), x1 = std::log(p[i + 1]->total_s);
+    const double y0 = std::log(p[i]->rel_mse), y1 = std::log(p[i + 1]->rel_mse);
+    if (x1 == x0) return std::exp(0.5 * (y0 + y1));
+    const double t = (std::log(time_s) - x0) / (x1 - x0);
+    return std::exp(y0 + t * (y1 - y0));
+}
+
+}  // namespace
+
+std::vector<std::vector<std::string>> sweep_runs(const std::vector<SweepAxis>& axes) {
+    std::vector<std::vector<std::string>> runs{{}};
+    for (const SweepAxis& axis : axes) {
+        std::vector<std::vector<std::string>> next;
+        next.reserve(runs.size() * axis.values.size());
+        for (const auto& run : runs) {
+            for (const std::string& v : axis.values) {
+                next.push_back(run);
+                next.back().push_back(axis.key + "=" + v);
+            }
+        }
+        runs = std::move(next);
+    }
+    return runs;
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference) {
+    BenchRow row;
+    row.method = to_string(desc.render.integrator);
+    row.spp = desc.render.spp;
+    row.repeats = std::max(repeats, 1);
+    std::vector<std::vector<double>> phases(kBenchPhases.size());
+    std::vector<double> totals;
+    for (int rep = 0; rep < row.repeats; ++rep) {
+        const Timer timer;
+        const PipelineResult result = run_pipeline(desc, /*quiet=*/true);
+        totals.push_back(timer.seconds());
+        for (size_t p = 0; p < kBenchPhases.size(); ++p) {
+            double s = 0.0;
+            for (const auto& [name, t] : result.report.phases_s)
+                if (name == kBenchPhases[p]) s += t;
+            phases[p].push_back(s);
+        }
+        if (rep > 0) continue;
+        for (const MapReport& m : result.report.maps) {
+            row.bytes += m.bytes;
+            for (size_t i = 0; i < kBenchMaps.size(); ++i)
+                if (m.name == kBenchMaps[i]) row.stored[i] = m.stored;
+        }
+        const ImageError e = image_error(result.aov.beauty, reference);
+        row.rmse = e.rmse;
+        row.rel_mse = e.rel_mse;
+        row.bias = e.bias;
+    }
+    for (size_t p = 0; p < kBenchPhases.size(); ++p) row.phase_s[p] = median(phases[p]);
+    row.total_s = median(totals);
+    return row;
+}
+
+std::string bench_csv_header(const std::vector<std::string>& swept_keys) {
+    std::string h = "method";
+    for (const std::string& k : swept_keys) h += "," + csv_field(k);
+    h += ",spp,repeats";
+    for (const char* phase : kBenchPhases) {
+        std::string name = std::string(phase) + "_s";
+        std::replace(name.begin(), name.end(), ' ', '_');
+        h += "," + name;
+    }
+    h += ",total_s";
+    for (const char* map : kBenchMaps) h += std::string(",stored_") + map;
+    return h + ",bytes,rmse,rel_mse,bias\n";
+}
+
+std::string bench_csv_row(const BenchRow& row) {
+    std::string s = csv_field(row.method);
+    for (const std::string& v : row.swept) s += "," + csv_field(v);
+    s += "," + std::to_string(row.spp) + "," + std::to_string(row.repeats);
+    for (double t : row.phase_s) s += "," + number(t);
+    s += "," + number(row.total_s);
+    for (uint64_t n : row.stored) s += "," + std::to_string(n);
+    s += "," + std::to_string(row.bytes) + "," + number(row.rmse) + "," + number(row.rel_mse) +
+         "," + number(row.bias);
+    return s + "\n";
+}
+
+std::vector<size_t> pareto_frontier(const std::vector<double>& time_s,
+                                    const std::vector<double>& error) {
+    std::vector<size_t> order(std::min(time_s.size(), error.size()));
+    std::iota(order.begin(), order.end(), size_t{0});
+    // By time, then error, then index: a point is on the frontier iff its error is below that of
+    // every point before it in this order (which are all at least as fast).
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+        if (time_s[a] != time_s[b]) return time_s[a] < time_s[b];
+        if (error[a] != error[b]) return error[a] < error[b];
+        return a < b;
+    });
+    std::vector<size_t> frontier;
+    for (size_t i : order)
+        if (frontier.empty() || error[i] < error[frontier.back()]) frontier.push_back(i);
+    return frontier;
+}
+
+std::string bench_label(const BenchRow& row, const std::vector<std::string>& swept_keys) {
+    std::string label;
+    for (size_t i = 0; i < swept_keys.size() && i < row.swept.size(); ++i) {
+        if (row.swept[i].empty()) continue;
+        if (!label.empty()) label += " ";
+        label += swept_keys[i] + "=" + row.swept[i];
+    }
+    if (row.method == "path" || label.empty()) {
+        const std::string base = row.method + " " + std::to_string(row.spp) + " spp";
+        label = label.empty() ? base : base + " " + label;
+    }
+    return label;
+}
+
+std::string bench_summary(const std::vector<BenchRow>& rows,
+                          const std::vector<std::string>& swept_keys) {
+    std::vector<const BenchRow*> photon, path;
+    for (const BenchRow& r : rows) (r.method == "path" ? path : photon).push_back(&r);
+    std::sort(path.begin(), path.end(),
+              [](const BenchRow* a, const BenchRow* b) { return a->total_s < b->total_s; });
+
+    std::ostringstream out;
+    std::vector<double> t, e;
+    for (const BenchRow* r : photon) {
+        t.push_back(r->total_s);
+        e.push_back(r->rel_mse);
+    }
+    const std::vector<size_t> frontier = pareto_frontier(t, e);
+    out << "Pareto frontier of the photon runs (best setting at each time budget):\n";
+    out << "  " << padded("total_s", 10) << padded("relMSE", 12) << padded("path relMSE", 14)
+        << padded("path/photon", 13) << "setting\n";
+    for (size_t i : frontier) {
+        const BenchRow& r = *photon[i];
+        bool extrapolated = false;
+        const double pe = path_error_at(path, r.total_s, &extrapolated);
+        const std::string pe_text =
+            std::isnan(pe) ? "-" : number(pe) + (extrapolated ? "*" : "");
+        const std::string ratio =
+            std::isnan(pe) || r.rel_mse <= 0.0 ? "-" : number(pe / r.rel_mse) + "x";
+        out << "  " << padded(number(r.total_s), 10) << padded(number(r.rel_mse), 12)
+            << padded(pe_text, 14) << padded(ratio, 13) << bench_label(r, swept_keys) << "\n";
+    }
+    if (photon.empty()) out << "  (no photon runs)\n";
+    out << "  (path relMSE: the path tracer at the same total time, interpolated log-log between "
+           "its runs; * = extrapolated)\n";
+    out << "Path tracer:\n";
+    out << "  " << padded("total_s", 10) << padded("relMSE", 12) << "spp\n";
+    for (const BenchRow* r : path)
+        out << "  " << padded(number(r->total_s), 10) << padded(number(r->rel_mse), 12) << r->spp
+            << "\n";
+    if (path.empty()) out << "  (no path runs)\n";
+    return out.str();
+}
+
+}  // namespace fogmap

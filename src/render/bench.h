@@ -1,0 +1,75 @@
+#pragma once
+// Pipeline sweeps for `fogmap bench` (DESIGN.md, Error against run time): the cross product of
+// swept settings, one timed and error-measured run per combination, CSV rows, the Pareto
+// frontier of (time, error) and the text summary. Times are wall seconds, medians over repeats.
+// Pure functions apart from run_bench_case, which renders; nothing here writes files.
+
+#include "core/image.h"
+#include "scene/scene_desc.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+
+/// One `--sweep KEY=V1,V2,...`: a dotted settings key and its values as override text.
+struct SweepAxis {
+    std::string key;
+    std::vector<std::string> values;
+};
+
+/// The cross product of `axes` as override lists {"k1=v", "k2=w", ...}, one per run, the first
+/// axis varying slowest (nested loops in axis order). No axes → one empty run.
+std::vector<std::vector<std::string>> sweep_runs(const std::vector<SweepAxis>& axes);
+
+/// Phases reported by run_pipeline, in CSV order; a phase a run does not have is 0.
+inline constexpr std::array<const char*, 7> kBenchPhases{
+    "load",         "photon pass",           "build global", "build caustic",
+    "build volume", "irradiance precompute", "render"};
+/// Photon maps, in CSV order.
+inline constexpr std::array<const char*, 3> kBenchMaps{"global", "caustic", "volume"};
+
+/// One run of the sweep: its settings, median times and error against the reference.
+struct BenchRow {
+    std::string method;                      ///< "photon" or "path" (render.integrator)
+    std::vector<std::string> swept;          ///< value of each swept key ("" = not swept here)
+    int spp = 0;                             ///< render.spp of the run
+    int repeats = 0;                         ///< runs the medians are taken over
+    std::array<double, kBenchPhases.size()> phase_s{};  ///< median wall time per phase
+    double total_s = 0.0;                    ///< median wall time of the whole run_pipeline
+    std::array<uint64_t, kBenchMaps.size()> stored{};   ///< photons stored per map
+    uint64_t bytes = 0;                      ///< all maps: records + trees
+    double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference (first repeat)
+};
+
+/// Runs `desc` `repeats` (>= 1) times through run_pipeline (quietly) and measures the first
+/// image against `reference` (same size, checked by the caller). Deterministic images per seed,
+/// so only the times vary between repeats. Throws what run_pipeline throws.
+BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference);
+
+/// Median of `v` (mean of the middle two for an even count); 0 for an empty vector.
+double median(std::vector<double> v);
+
+/// CSV header: method, the swept keys, spp, repeats, <phase>_s..., total_s, stored_<map>...,
+/// bytes, rmse, rel_mse, bias.
+std::string bench_csv_header(const std::vector<std::string>& swept_keys);
+/// One CSV line (with '\n'); fields with ',' or '"' are quoted.
+std::string bench_csv_row(const BenchRow& row);
+
+/// Indices of the Pareto frontier of (time_s[i], error[i]), both minimised: the points no other
+/// point beats or equals in both with one strictly better, sorted by time. Among exact
+/// duplicates the first index is kept. The sizes must match.
+std::vector<size_t> pareto_frontier(const std::vector<double>& time_s,
+                                    const std::vector<double>& error);
+
+/// "photons.volume=25000 volume.k=20" for a row; "path 64 spp" for a path row without sweeps.
+std::string bench_label(const BenchRow& row, const std::vector<std::string>& swept_keys);
+
+/// The stdout summary: the photon frontier (best setting at each time budget, with the path
+/// tracer's relMSE at the same time interpolated log-log between its runs) and the path rows.
+std::string bench_summary(const std::vector<BenchRow>& rows,
+                          const std::vector<std::string>& swept_keys);
+
+}  // namespace fogmap

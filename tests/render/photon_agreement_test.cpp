@@ -1,0 +1,74 @@
+// Image agreement between the photon-map renderer and the path tracer on the bundled scenes:
+// relative MSE against a path-traced reference falls as the photon count grows (3 counts, with
+// k growing as sqrt(N) so that both the variance ~1/k and the radius ~(k/N)^(1/3) shrink — the
+// usual consistent choice), and at the largest count the image mean is within 2% of the
+// reference's. The default run uses small images; the `heavy` variants use larger ones.
+
+#include "render/metrics.h"
+#include "render/pipeline.h"
+#include "scene/scene_desc_json.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+struct AgreementCase {
+    const char* scene;
+    int width, height;
+    int reference_spp, photon_spp;
+    uint64_t volume_photons;  ///< smallest count; then x4 and x16
+};
+
+void check_agreement(const AgreementCase& c) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/" + c.scene;
+    const std::vector<std::string> size = {"camera.width=" + std::to_string(c.width),
+                                           "camera.height=" + std::to_string(c.height)};
+    std::vector<std::string> ref_overrides = size;
+    ref_overrides.push_back("render.integrator=\"path\"");
+    ref_overrides.push_back("render.spp=" + std::to_string(c.reference_spp));
+    const Image reference = run_pipeline(load_scene_desc(path, ref_overrides), true).aov.beauty;
+
+    double previous = 1e30, mean = 0.0;
+    for (int level = 0; level < 3; ++level) {
+        const uint64_t n = c.volume_photons << (2 * level);
+        const int k = 25 << level;  // sqrt(N) growth
+        std::vector<std::string> o = size;
+        o.push_back("render.integrator=\"photon\"");
+        o.push_back("render.spp=" + std::to_string(c.photon_spp));
+        o.push_back("photons.volume=" + std::to_string(n));
+        o.push_back("photons.global=" + std::to_string(n / 4));
+        o.push_back("volume.k=" + std::to_string(k));
+        o.push_back("global.k=" + std::to_string(2 * k));
+        const Image image = run_pipeline(load_scene_desc(path, o), true).aov.beauty;
+        const ImageError e = image_error(image, reference);
+        EXPECT_LT(e.rel_mse, previous) << c.scene << ": " << n << " volume photons";
+        previous = e.rel_mse;
+        mean = image.mean();
+        std::printf("%s: %llu volume photons, k %d: relMSE %.5f, bias %.5f\n", c.scene,
+                    static_cast<unsigned long long>(n), k, e.rel_mse, e.bias);
+    }
+    EXPECT_NEAR(mean, reference.mean(), 0.02 * reference.mean()) << c.scene;
+}
+
+TEST(PhotonAgreement, SmokeConvergesToThePathTracer) {
+    check_agreement({"smoke.json", 64, 36, 1024, 16, 12500});
+}
+
+TEST(PhotonAgreement, FogConvergesToThePathTracer) {
+    check_agreement({"fog.json", 64, 36, 1024, 8, 12500});
+}
+
+TEST(PhotonAgreementHeavy, SmokeConvergesToThePathTracer) {
+    check_agreement({"smoke.json", 240, 135, 4096, 32, 25000});
+}
+
+TEST(PhotonAgreementHeavy, FogConvergesToThePathTracer) {
+    check_agreement({"fog.json", 240, 135, 4096, 16, 25000});
+}
+
+}  // namespace
+}  // namespace fogmap
