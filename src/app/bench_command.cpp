@@ -1,13 +1,378 @@
-// placeholder: `fogmap bench` is being written.
+// `fogmap bench SCENE --sweep KEY=V1,V2,... --csv OUT.csv --plot OUT.svg`: renders the cross
+// product of the sweeps and the path tracer at a few sample counts, measures each against a
+// reference, writes one CSV row per run, an SVG plot of relMSE against time with the Pareto
+// frontier, and prints the frontier (DESIGN.md, Error against run time). Every setting is checked
+// before the first render; the CSV and SVG appear together at the end (temp file + rename).
+
 #include "app/commands.h"
 
+#include "core/error.h"
+#include "core/image.h"
+#include "core/timer.h"
+#include "render/bench.h"
+#include "render/pipeline.h"
+#include "render/svg_plot.h"
+#include "scene/scene_desc_json.h"
+
+#include <unistd.h>
 #include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
 
 namespace fogmap {
 
+namespace {
+
+namespace fs = std::filesystem;
+
+struct BenchArgs {
+    std::string scene;
+    std::string reference;  ///< "" = none
+    int reference_spp = 0;  ///< 0 = none
+    std::vector<std::string> sweeps;
+    std::string csv, plot;
+    int repeat = 1;
+    std::string path_spp = "1,4,16,64";
+    std::vector<std::string> overrides;
+    bool quiet = false;
+};
+
+/// The reference seed differs from the runs' seed: the path tracer draws sample s of a pixel
+/// from Rng(seed, pixel, s), so a reference with the same seed would contain the path rows'
+/// own samples and understate their error.
+constexpr uint64_t kReferenceSeedOffset = 0x5eed5eedull;
+
+/// Splits at commas outside [..], {..} and "..", so JSON values such as [1,2,3] stay whole.
+std::vector<std::string> split_values(const std::string& text) {
+    std::vector<std::string> out;
+    std::string cur;
+    int depth = 0;
+    bool quoted = false;
+    for (char c : text) {
+        if (c == '"') quoted = !quoted;
+        if (!quoted && (c == '[' || c == '{')) ++depth;
+        if (!quoted && (c == ']' || c == '}')) --depth;
+        if (c == ',' && depth == 0 && !quoted) {
+            out.push_back(cur);
+            cur.clear();
+        } else {
+            cur += c;
+        }
+    }
+    out.push_back(cur);
+    return out;
+}
+
+SweepAxis parse_sweep(const std::string& text) {
+    const std::string origin = "--sweep '" + text + "': ";
+    const size_t eq = text.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw InputError("", "--sweep",
+                         origin + "expected KEY=V1,V2,..., e.g. photons.volume=25000,100000");
+    SweepAxis axis{text.substr(0, eq), split_values(text.substr(eq + 1))};
+    for (const std::string& v : axis.values)
+        if (v.empty())
+            throw InputError("", "--sweep",
+                             origin +
+                                 "empty value in the list; expected KEY=V1,V2,... with "
+                                 "every value non-empty");
+    return axis;
+}
+
+std::vector<int> parse_path_spp(const std::string& text) {
+    std::vector<int> out;
+    if (text == "none") return out;
+    for (const std::string& v : split_values(text)) {
+        char* end = nullptr;
+        errno = 0;
+        const long n = std::strtol(v.c_str(), &end, 10);
+        if (v.empty() || *end != '\0' || errno != 0 || n < 1 || n > 1000000)
+            throw InputError("", "--path-spp",
+                             "'" + v + "' in '" + text +
+                                 "': expected comma-separated sample counts 1 .. 1000000, or "
+                                 "'none'");
+        out.push_back(int(n));
+    }
+    return out;
+}
+
+/// FNV-1a, 64 bit: a stable name for the cached reference (std::hash is not stable).
+uint64_t fnv1a(const std::string& s) {
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : s) {
+        h ^= c;
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+std::string temp_path(const std::string& path) {
+    return path + ".tmp-" + std::to_string(::getpid());
+}
+
+/// Creates the folder of `path` and checks a file can be written there, before any work.
+void check_writable(const std::string& path, const char* option) {
+    const fs::path parent = fs::path(path).parent_path();
+    std::error_code ec;
+    if (!parent.empty()) fs::create_directories(parent, ec);
+    if (ec)
+        throw InputError(path, option,
+                         "cannot create folder '" + parent.string() + "': " + ec.message());
+    if (fs::is_directory(path, ec))
+        throw InputError(path, option, "is a folder; expected a file path");
+    const std::string probe = temp_path(path);
+    errno = 0;
+    std::ofstream out(probe, std::ios::binary);
+    if (!out)
+        throw InputError(
+            path, option,
+            std::string("cannot write here: ") + std::strerror(errno ? errno : EACCES));
+    out.close();
+    fs::remove(probe, ec);
+}
+
+/// Writes every (path, text) pair to its temp file first and renames only when all succeeded,
+/// so the CSV and the plot appear together or not at all.
+void write_files_atomically(const std::vector<std::pair<std::string, std::string>>& files) {
+    std::vector<std::string> temps;
+    const auto cleanup = [&] {
+        std::error_code ec;
+        for (const std::string& t : temps) fs::remove(t, ec);
+    };
+    for (const auto& [path, text] : files) {
+        temps.push_back(temp_path(path));
+        std::ofstream out(temps.back(), std::ios::binary);
+        out << text;
+        out.close();
+        if (!out) {
+            cleanup();
+            throw InputError(path, "", "cannot write file: " + std::string(std::strerror(errno)));
+        }
+    }
+    for (size_t i = 0; i < files.size(); ++i) {
+        std::error_code ec;
+        fs::rename(temps[i], files[i].first, ec);
+        if (ec) {
+            cleanup();
+            throw InputError(files[i].first, "", "cannot rename temp file: " + ec.message());
+        }
+    }
+}
+
+void check_size(int width, int height, const std::string& file, const SceneDesc& desc,
+                const std::string& what) {
+    if (width == desc.camera.width && height == desc.camera.height) return;
+    throw InputError(file, "",
+                     "reference is " + std::to_string(width) + "x" + std::to_string(height) + ", " +
+                         what + " renders " + std::to_string(desc.camera.width) + "x" +
+                         std::to_string(desc.camera.height));
+}
+
+std::string seconds(double s) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3f s", s);
+    return buf;
+}
+
+LogLogPlot make_plot(const std::vector<BenchRow>& rows, const BenchArgs& args,
+                     const SceneDesc& base) {
+    LogLogPlot plot;
+    plot.title = "fogmap bench: " + fs::path(args.scene).filename().string() + " (" +
+                 std::to_string(base.camera.width) + "x" + std::to_string(base.camera.height) +
+                 "), relMSE against total time";
+    plot.x_label = "total wall time per run (s, log)";
+    plot.y_label = "relMSE vs reference (log)";
+    PlotSeries photon{"photon map runs", "#1f77b4", PlotMarker::Circle, PlotLine::None, {}};
+    PlotSeries path{
+        "path tracer (spp sweep)", "#2ca02c", PlotMarker::Square, PlotLine::Straight, {}};
+    std::vector<double> t, e;
+    for (const BenchRow& r : rows) {
+        PlotSeries& s = r.method == "path" ? path : photon;
+        s.points.push_back({r.total_s, r.rel_mse});
+        if (r.method != "path") {
+            t.push_back(r.total_s);
+            e.push_back(r.rel_mse);
+        }
+    }
+    std::sort(path.points.begin(), path.points.end(),
+              [](const PlotPoint& a, const PlotPoint& b) { return a.x < b.x; });
+    PlotSeries frontier{"photon Pareto frontier", "#ff7f0e", PlotMarker::None, PlotLine::Step, {}};
+    for (size_t i : pareto_frontier(t, e)) frontier.points.push_back({t[i], e[i]});
+    plot.series = {photon, frontier, path};
+    return plot;
+}
+
+int run_bench(const BenchArgs& args) {
+    // ---- Check every input before the first render. ----
+    if (fs::path(args.csv).extension() != ".csv")
+        throw InputError("", "--csv", "'" + args.csv + "' does not end in .csv");
+    if (fs::path(args.plot).extension() != ".svg")
+        throw InputError("", "--plot", "'" + args.plot + "' does not end in .svg");
+    if (args.repeat < 1)
+        throw InputError("", "--repeat", "expected >= 1, found " + std::to_string(args.repeat));
+    if (args.reference.empty() == (args.reference_spp == 0))
+        throw InputError("", "--reference",
+                         "expected exactly one of --reference REF.exr or --reference-spp N");
+    if (args.reference.empty() && args.reference_spp < 0)
+        throw InputError("", "--reference-spp",
+                         "expected >= 1, found " + std::to_string(args.reference_spp));
+    if (args.sweeps.empty())
+        throw InputError("", "--sweep", "expected at least one --sweep KEY=V1,V2,...");
+    std::vector<SweepAxis> axes;
+    std::vector<std::string> keys;
+    for (const std::string& s : args.sweeps) {
+        axes.push_back(parse_sweep(s));
+        for (const std::string& k : keys)
+            if (k == axes.back().key)
+                throw InputError("", "--sweep", "'" + k + "' is swept twice; give each key once");
+        keys.push_back(axes.back().key);
+    }
+    const std::vector<int> path_spp = parse_path_spp(args.path_spp);
+
+    const SceneDesc base = load_scene_desc(args.scene, args.overrides);
+    std::vector<SceneDesc> runs;
+    std::vector<std::vector<std::string>> run_values;
+    for (const std::vector<std::string>& assignment : sweep_runs(axes)) {
+        std::vector<std::string> overrides = args.overrides;
+        overrides.insert(overrides.end(), assignment.begin(), assignment.end());
+        try {
+            runs.push_back(load_scene_desc(args.scene, overrides));  // the normal checks
+        } catch (const InputError& e) {
+            // Name the --sweep a bad value came from rather than the --set it was applied as.
+            for (size_t a = 0; a < assignment.size(); ++a) {
+                const std::string from_set = " (from --set '" + assignment[a] + "')";
+                const size_t at = e.reason.rfind(from_set);
+                if (at != std::string::npos && at + from_set.size() == e.reason.size())
+                    throw InputError(
+                        e.file, e.field,
+                        e.reason.substr(0, at) + " (from --sweep '" + args.sweeps[a] + "')");
+            }
+            throw;
+        }
+        std::vector<std::string> values;
+        for (const std::string& a : assignment) values.push_back(a.substr(a.find('=') + 1));
+        run_values.push_back(values);
+    }
+    for (int spp : path_spp) {
+        SceneDesc d = base;
+        d.render.integrator = Integrator::Path;
+        d.render.spp = spp;
+        runs.push_back(d);
+        run_values.emplace_back(keys.size());
+    }
+
+    Image reference;
+    std::string reference_file = args.reference;
+    std::optional<SceneDesc> reference_desc;
+    if (!args.reference.empty()) {
+        reference = read_exr(args.reference);
+    } else {
+        // Cache name: FNV-1a of the reference's full scene JSON (to_json: every setting, with
+        // integrator path, spp N, the reference seed, threads 0) plus the absolute folder that
+        // relative files resolve against; so any change of scene or settings renders anew.
+        SceneDesc d = base;
+        d.render.integrator = Integrator::Path;
+        d.render.spp = args.reference_spp;
+        d.render.seed = base.render.seed + kReferenceSeedOffset;
+        d.render.threads = 0;
+        char hash[17];
+        std::snprintf(hash, sizeof hash, "%016llx",
+                      static_cast<unsigned long long>(
+                          fnv1a(to_json(d).dump() + "\n" + fs::absolute(base.base_dir).string())));
+        d.render.threads = base.render.threads;
+        const fs::path dir = fs::path(args.csv).parent_path();
+        reference_file = (dir / (fs::path(args.scene).stem().string() + "_ref_path" +
+                                 std::to_string(args.reference_spp) + "spp_" + hash + ".exr"))
+                             .string();
+        reference_desc = d;
+    }
+    const int ref_width = reference_desc ? reference_desc->camera.width : reference.width;
+    const int ref_height = reference_desc ? reference_desc->camera.height : reference.height;
+    for (size_t i = 0; i < runs.size(); ++i)
+        check_size(ref_width, ref_height, reference_file, runs[i],
+                   "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
+    check_writable(args.csv, "--csv");
+    check_writable(args.plot, "--plot");
+
+    // ---- Reference. ----
+    if (reference_desc) {
+        std::error_code ec;
+        if (fs::exists(reference_file, ec)) {
+            reference = read_exr(reference_file);
+            check_size(reference.width, reference.height, reference_file, *reference_desc,
+                       "the scene");
+            if (!args.quiet)
+                std::fprintf(stderr, "reference: reusing %s\n", reference_file.c_str());
+        } else {
+            if (!args.quiet)
+                std::fprintf(stderr, "reference: rendering path tracer at %d spp -> %s\n",
+                             args.reference_spp, reference_file.c_str());
+            const Timer timer;
+            reference = run_pipeline(*reference_desc, args.quiet).aov.beauty;
+            write_exr(reference_file, reference);
+            if (!args.quiet)
+                std::fprintf(stderr, "reference: done in %s\n", seconds(timer.seconds()).c_str());
+        }
+    }
+
+    // ---- Runs. ----
+    std::vector<BenchRow> rows;
+    for (size_t i = 0; i < runs.size(); ++i) {
+        BenchRow row = run_bench_case(runs[i], args.repeat, reference);
+        row.swept = run_values[i];
+        if (!args.quiet)
+            std::fprintf(stderr, "[%zu/%zu] %s: %s, relMSE %.4g\n", i + 1, runs.size(),
+                         bench_label(row, keys).c_str(), seconds(row.total_s).c_str(), row.rel_mse);
+        rows.push_back(std::move(row));
+    }
+
+    // ---- Outputs. ----
+    std::string csv = bench_csv_header(keys);
+    for (const BenchRow& r : rows) csv += bench_csv_row(r);
+    const std::string svg = svg_log_log(make_plot(rows, args, base));
+    write_files_atomically({{args.csv, csv}, {args.plot, svg}});
+
+    std::cout << "fogmap bench: " << args.scene << ", " << base.camera.width << "x"
+              << base.camera.height << ", " << rows.size() << " runs, median of " << args.repeat
+              << ", reference " << reference_file << "\n";
+    std::cout << bench_summary(rows, keys);
+    std::cout << "wrote: " << args.csv << "\nwrote: " << args.plot << "\n";
+    return 0;
+}
+
+}  // namespace
+
 Subcommand add_bench_command(CLI::App& app) {
-    CLI::App* sub = app.add_subcommand("bench", "(not yet available)");
-    return {sub, [] { return 1; }};
+    auto args = std::make_shared<BenchArgs>();
+    CLI::App* sub = app.add_subcommand(
+        "bench", "sweep settings; CSV and SVG plot of error against run time vs a reference");
+    sub->add_option("scene", args->scene, "scene JSON file")->required();
+    sub->add_option("--reference", args->reference, "reference .exr of the same scene and size");
+    sub->add_option("--reference-spp", args->reference_spp,
+                    "render a path-traced reference at N spp, cached beside the CSV as "
+                    "<scene>_ref_path<N>spp_<FNV-1a of its scene JSON>.exr");
+    sub->add_option("--sweep", args->sweeps, "KEY=V1,V2,...: a setting and its values")
+        ->expected(1)
+        ->take_all();
+    sub->add_option("--csv", args->csv, "output .csv, one row per run")->required();
+    sub->add_option("--plot", args->plot, "output .svg: relMSE against time, log-log")->required();
+    sub->add_option("--repeat", args->repeat, "runs per setting; times are medians");
+    sub->add_option("--path-spp", args->path_spp,
+                    "path tracer sample counts run beside the sweep, or 'none'")
+        ->capture_default_str();
+    sub->add_option("--set", args->overrides, "override a setting for every run, e.g. a.b=1")
+        ->expected(1)
+        ->take_all();
+    sub->add_flag("-q,--quiet", args->quiet, "no progress on stderr");
+    return {sub, [args] { return run_bench(*args); }};
 }
 
 }  // namespace fogmap

@@ -28,6 +28,11 @@ int main(int argc, char** argv) {
     r->add_option("--max-depth", max_depth, "max scattering vertices (= --set render.max_depth=N)");
     r->add_option("--reference", render.reference, "reference .exr: report RMSE, relMSE, bias");
     r->add_option("--exposure", render.exposure, "PNG exposure in stops");
+    r->add_flag("--progressive", render.progressive,
+                "progressive photon mapping (Knaus and Zwicker 2011)");
+    r->add_option("--time-budget", render.time_budget_s, "progressive: seconds to run");
+    r->add_option("--iterations", render.iterations, "progressive: iterations to run");
+    r->add_option("--alpha", render.alpha, "progressive: radius reduction in (0, 1)");
     r->add_flag("-q,--quiet", render.quiet, "no progress bar");
     r->add_flag("--json", render.json, "print the report as JSON on stdout");
 

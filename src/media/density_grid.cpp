@@ -160,6 +160,32 @@ void check_file_exists(const std::string& path, const std::string& field) {
     if (!std::ifstream(path, std::ios::binary)) throw InputError(path, field, "cannot open file");
 }
 
+/// OpenVDB's messages about corrupt files quote raw bytes (e.g. "Grid type <garbage> is not
+/// registered"): keep messages one printable line of bounded length.
+std::string printable(const std::string& what) {
+    constexpr size_t kMaxLength = 300;
+    std::string s;
+    for (const char c : what.substr(0, kMaxLength))
+        s += (static_cast<unsigned char>(c) >= 0x20 && c != 0x7f) ? c : '?';
+    return what.size() > kMaxLength ? s + "..." : s;
+}
+
+/// A VDB header (magic, versions, offsets flag, UUID, metadata and grid counts) takes 65 bytes
+/// from file format 222 on. OpenVDB does not check its stream while reading it: a file cut inside
+/// the header opens as "0 grids", or reads a garbage string length and allocates gigabytes
+/// (found by tests/fuzz). Checked before OpenVDB opens the file.
+void check_header_complete(const std::string& path, const std::string& field) {
+    constexpr std::streamoff kHeaderBytes = 65;
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
+    const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : 0;
+    if (size < kHeaderBytes) {
+        throw InputError(path, field,
+                         "cannot read VDB file: it ends after " + std::to_string(size) +
+                             " bytes, inside the VDB header (" + std::to_string(kHeaderBytes) +
+                             " bytes); the file is truncated or not a VDB file");
+    }
+}
+
 }  // namespace
 
 struct DensityGrid::Impl {
@@ -179,6 +205,7 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                                const std::string& field) {
     init_openvdb();
     check_file_exists(path, field);
+    check_header_complete(path, field);
     FloatGrid::Ptr grid;
     try {
         openvdb::io::File file(path);
@@ -200,7 +227,7 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     } catch (const InputError&) {
         throw;
     } catch (const std::exception& e) {
-        throw InputError(path, field, std::string("cannot read VDB file: ") + e.what());
+        throw InputError(path, field, "cannot read VDB file: " + printable(e.what()));
     }
     if (!grid->transform().isLinear()) {
         throw InputError(path, field,
@@ -273,6 +300,7 @@ float DensityGrid::Sampler::density(const Vec3& p_index) {
 std::vector<GridInfo> inspect_vdb(const std::string& path) {
     init_openvdb();
     check_file_exists(path, "");
+    check_header_complete(path, "");
     std::vector<GridInfo> infos;
     try {
         openvdb::io::File file(path);
@@ -322,8 +350,10 @@ std::vector<GridInfo> inspect_vdb(const std::string& path) {
             }
             infos.push_back(std::move(info));
         }
+    } catch (const InputError&) {
+        throw;
     } catch (const std::exception& e) {
-        throw InputError(path, "", std::string("cannot read VDB file: ") + e.what());
+        throw InputError(path, "", "cannot read VDB file: " + printable(e.what()));
     }
     return infos;
 }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 namespace fogmap {
 
@@ -63,6 +64,8 @@ float Medium::Sampler::density(const Vec3& p_world) {
 
 bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1) {
     walking_ = false;
+    exhausted_ = false;
+    tentatives_ = 0;
     const Medium& m = *medium_;
     if (m.sigma_t_max_ <= 0.0f || m.world_bounds_.empty()) return false;
     if (!grid_sampler_) {
@@ -83,24 +86,28 @@ bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1) {
         cells.lo[a] = static_cast<float>(maj.origin[a]);
         cells.hi[a] = static_cast<float>(maj.origin[a] + maj.dims[a] * maj.cell);
     }
+    // The walk covers the density's support (active bbox grown by one voxel), not whole cells:
+    // boundary cells reach up to 7 voxels beyond it, where the density is 0 but the cell's
+    // majorant is not, and at high density (scale 1e9) that empty stretch alone costs ~1e9 null
+    // collisions per ray.
     float te, tx;
-    if (!intersect_box(cells, r, t0, t1, &te, &tx)) return false;
+    if (!intersect_box(m.grid_->index_bounds(), r, t0, t1, &te, &tx)) return false;
     const Vec3 p = r.at(0.5f * (te + std::min(tx, te + 1e-3f)));  // a point inside the first cell
     for (int a = 0; a < 3; ++a) {
         const float rel = (p[a] - cells.lo[a]) / static_cast<float>(maj.cell);
         cell_[a] = std::clamp(static_cast<int>(std::floor(rel)), 0, maj.dims[a] - 1);
         if (r.d[a] > 0.0f) {
             step_[a] = 1;
-            t_next_[a] = (cells.lo[a] + (cell_[a] + 1) * maj.cell - r.o[a]) / r.d[a];
-            t_delta_[a] = maj.cell / r.d[a];
+            t_next_[a] = (double(cells.lo[a]) + (cell_[a] + 1) * maj.cell - r.o[a]) / r.d[a];
+            t_delta_[a] = maj.cell / double(r.d[a]);
         } else if (r.d[a] < 0.0f) {
             step_[a] = -1;
-            t_next_[a] = (cells.lo[a] + cell_[a] * maj.cell - r.o[a]) / r.d[a];
-            t_delta_[a] = -maj.cell / r.d[a];
+            t_next_[a] = (double(cells.lo[a]) + cell_[a] * maj.cell - r.o[a]) / r.d[a];
+            t_delta_[a] = -maj.cell / double(r.d[a]);
         } else {
             step_[a] = 0;
-            t_next_[a] = kInfinity;
-            t_delta_[a] = kInfinity;
+            t_next_[a] = std::numeric_limits<double>::infinity();
+            t_delta_[a] = std::numeric_limits<double>::infinity();
         }
     }
     seg_t1_ = te;  // next_segment() starts where the previous segment ended
@@ -125,13 +132,19 @@ bool Medium::Sampler::next_segment() {
 }
 
 bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
+    if (++tentatives_ > kMaxTentatives) {  // bounded work; see kMaxTentatives
+        if (!exhausted_) ++exhausted_walks_;
+        exhausted_ = true;
+        walking_ = false;
+        return false;
+    }
     double tau = sample_optical_depth(rng);
     for (;;) {
         if (seg_maj_ > 0.0f) {
             const double dt = tau / seg_maj_;
             if (seg_t0_ + dt < seg_t1_) {
-                seg_t0_ = static_cast<float>(seg_t0_ + dt);
-                *t = seg_t0_;
+                seg_t0_ += dt;
+                *t = static_cast<float>(seg_t0_);
                 *sigma_maj = seg_maj_;
                 return true;
             }
@@ -172,7 +185,10 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
         // Null collision: weight (μ − σ_t)/(μ p_n), exactly 1 for grey media.
         const float p_n = 1.0f - p_a - p_s;
         if (p_n > 0.0f) *beta *= glm::max(Color(m) - sigma_s - sigma_a, Color(0.0f)) / (m * p_n);
-        if (!media[i].next_tentative(rng, &t_next[i], &mu[i])) t_next[i] = kInfinity;
+        if (!media[i].next_tentative(rng, &t_next[i], &mu[i])) {
+            if (media[i].exhausted()) return {TrackEvent::Absorbed, t, i};  // opaque: see header
+            t_next[i] = kInfinity;
+        }
     }
 }
 
@@ -192,6 +208,7 @@ Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_m
                 T *= 2.0f;
             }
         }
+        if (s.exhausted()) return Color(0.0f);  // opaque at every resolved scale: see header
     }
     return T;
 }

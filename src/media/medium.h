@@ -12,6 +12,7 @@
 #include "core/rng.h"
 #include "media/density_grid.h"
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -54,18 +55,35 @@ public:
         /// [t0, t1]. Returns false if the medium is not met there.
         bool begin_walk(const Ray& ray, float t0, float t1);
         /// Next tentative collision: *t (world distance) and *sigma_maj (majorant of σ_t at
-        /// *t, 1/world unit). False when the walk passes t1.
+        /// *t, 1/world unit). False when the walk passes t1, or when it has produced
+        /// kMaxTentatives collisions (then exhausted() is true until the next begin_walk).
         bool next_tentative(Rng& rng, float* t, float* sigma_maj);
+
+        /// Work bound per walk. Entering a grid, the density ramps from 0 over one voxel under a
+        /// cell majorant, which costs ~sqrt(2 τ_voxel) null collisions (2e4 at τ_voxel = 2.5e8,
+        /// 7e9 at 1e19): past this bound the medium is opaque at every scale a pixel resolves,
+        /// and callers end the walk as if it were (delta_track: absorbed; ratio_track: T = 0).
+        static constexpr uint32_t kMaxTentatives = 1000000;
+        /// The current walk was cut at kMaxTentatives.
+        bool exhausted() const { return exhausted_; }
+        /// Walks cut at kMaxTentatives since this sampler was made (for reports).
+        uint64_t exhausted_walks() const { return exhausted_walks_; }
 
     private:
         bool next_segment();
         const Medium* medium_;
         std::optional<DensityGrid::Sampler> grid_sampler_;
-        // walk state (index space for grids; t shared with world space)
-        float t_end_ = 0.0f, seg_t0_ = 0.0f, seg_t1_ = 0.0f, seg_maj_ = 0.0f;
+        // Walk state (index space for grids; t shared with world space). Distances are double:
+        // in stiff media a step 1/σ_maj (1e-9 at density scale 1e9) is below a float's
+        // resolution of t, and a float walk would stop advancing (a hang in empty space).
+        double t_end_ = 0.0, seg_t0_ = 0.0, seg_t1_ = 0.0;
+        float seg_maj_ = 0.0f;
         int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
-        float t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
+        double t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
         bool walking_ = false;
+        bool exhausted_ = false;
+        uint32_t tentatives_ = 0;
+        uint64_t exhausted_walks_ = 0;
     };
 
 private:

@@ -1,9 +1,11 @@
 #pragma once
 // Radiance estimates from photon maps (DESIGN.md, Radiance estimates). Surface: disc estimate
 // over the k nearest photons (or all within r_max), r = distance to the k-th photon or r_max,
-// optional cone filter (Jensen, normalised by 1 − 2/(3 k_f)). Volume: spherical estimate of the
-// in-scattered radiance σ_s L_i = Σ p ΔΦ / ((4/3) π r³). Photon power = relative RGBE power ×
-// the map's photon_power. Thread-safe given a NeighborList per thread.
+// optional cone filter (Jensen, normalised by 1 − 2/(3 k_f)); when r is the k-th photon's
+// distance that photon is left out ((k−1)/V, the unbiased k-NN density estimate). k <= 0: every
+// photon within r_max (fixed radius, as progressive photon mapping uses). Volume: spherical
+// estimate of the in-scattered radiance σ_s L_i = Σ p ΔΦ / ((4/3) π r³). Photon power = relative
+// RGBE power × the map's photon_power. Thread-safe given a NeighborList per thread.
 
 #include "photon/photon_pass.h"
 

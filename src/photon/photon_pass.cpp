@@ -20,149 +20,144 @@ constexpr uint64_t kPhotonStream =
 constexpr uint64_t kBatch = 1u << 15;
 constexpr uint64_t kChunk = 512;
 
-enum MapId : uint8_t { kGlobal = 0, kCaustic = 1, kVolume = 2 };
+constexpr int kGlobal = static_cast<int>(PhotonMapId::Global);
+constexpr int kCaustic = static_cast<int>(PhotonMapId::Caustic);
+constexpr int kVolume = static_cast<int>(PhotonMapId::Volume);
 
-struct Tagged {
-    uint32_t index;  ///< emission index within the batch
-    uint8_t map;
-    Photon photon;
-};
-
-struct Tracer {
-    const Scene& scene;
-    const PhotonSettings& settings;
-    std::array<bool, 3> store;  ///< which maps still take photons
-    RayMarcher marcher;
+/// Lights chosen in proportion to their power; a photon leaves light l with Φ_l / avg(Φ_l).
+struct Emitter {
     std::vector<float> light_cdf;
-    std::vector<Color> light_relative_power;  ///< Φ_l / avg(Φ_l)
-    float offset_floor;
-
-    // Henyey–Greenstein g at x: the medium chosen in proportion to its scattering there.
-    float choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x, Rng& rng) const {
-        if (samplers.size() == 1) return samplers[0].medium().params().g;
-        std::array<float, kMaxMedia> w;
-        float sum = 0.0f;
-        for (size_t i = 0; i < samplers.size(); ++i) {
-            w[i] = samplers[i].density(x) * average(samplers[i].medium().params().sigma_s);
-            sum += w[i];
-        }
-        float u = rng.uniform() * sum;
-        for (size_t i = 0; i < samplers.size(); ++i) {
-            if (u < w[i]) return samplers[i].medium().params().g;
-            u -= w[i];
-        }
-        return samplers.back().medium().params().g;
-    }
-
-    void trace(uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
-               std::vector<Tagged>& out) const {
-        // Light ∝ power, then a photon from it.
-        const float pick = rng.uniform() * light_cdf.back();
-        const size_t li = std::min<size_t>(
-            std::upper_bound(light_cdf.begin(), light_cdf.end(), pick) - light_cdf.begin(),
-            light_cdf.size() - 1);
-        Ray ray;
-        if (!sample_photon(scene.lights[li], scene.bounds, rng, &ray)) return;
-        Color power = light_relative_power[li];
-        bool specular_chain = true;  // every interaction so far was specular
-        const bool has_media = !samplers.empty();
-        for (int depth = 0; depth < settings.max_bounces; ++depth) {
-            std::optional<SurfaceHit> hit;
-            float t_max = kInfinity;
-            if (scene.surfaces) {
-                hit = scene.surfaces->intersect(ray, 0.0f, kInfinity);
-                if (hit) t_max = hit->t;
-            }
-            if (has_media) {
-                bool scattered = false;
-                Vec3 x;
-                if (scene.desc.march.method == FreePathMethod::March) {
-                    const RayMarcher::FreePath fp =
-                        marcher.sample_free_path(samplers, ray, t_max, rng);
-                    power *= fp.weight;
-                    if (fp.collided) {
-                        x = fp.x;
-                        // Russian roulette on the albedo; power changes only by channel ratios.
-                        // Only scattering events are stored (absorptions would count σ_t, not σ_s).
-                        const double p = (double(fp.sigma_s.x) + fp.sigma_s.y + fp.sigma_s.z) /
-                                         (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
-                        if (rng.uniform() >= p) return;
-                        power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
-                        if (depth > 0 && store[kVolume])
-                            out.push_back({index, kVolume, Photon(x, ray.d, power)});
-                        scattered = true;
-                    }
-                } else {
-                    Color beta(1.0f);
-                    const TrackResult tr = delta_track(samplers, ray, t_max, rng, &beta);
-                    power *= beta;
-                    if (tr.event == TrackEvent::Absorbed) return;
-                    if (tr.event == TrackEvent::Scattered) {
-                        x = ray.at(tr.t);
-                        if (depth > 0 && store[kVolume])
-                            out.push_back({index, kVolume, Photon(x, ray.d, power)});
-                        scattered = true;
-                    }
-                }
-                if (scattered) {
-                    float pdf;
-                    const float g = choose_g(samplers, x, rng);
-                    const Vec3 d = hg_sample(ray.d, g, Vec2(rng.uniform(), rng.uniform()), &pdf);
-                    ray = Ray{x, d};
-                    specular_chain = false;
-                    continue;
-                }
-            }
-            if (!hit || hit->material < 0) return;
-            const Material& mat = scene.materials[hit->material];
-            const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
-            const Vec3 n = front ? hit->ng : -hit->ng;  // faces where the photon came from
-            switch (mat.type) {
-                case MaterialType::Diffuse: {
-                    if (depth > 0) {
-                        // Surface photons keep the normal of the side they arrived on (Lambertian
-                        // surfaces need no direction; see photon.h).
-                        const bool caustic = specular_chain;
-                        if (store[kGlobal])
-                            out.push_back(
-                                {index, kGlobal,
-                                 Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0)});
-                        if (caustic && store[kCaustic])
-                            out.push_back({index, kCaustic, Photon(hit->p, n, power)});
-                    }
-                    const float p = average(mat.albedo);
-                    if (rng.uniform() >= p) return;
-                    power *= mat.albedo / p;
-                    ray = Ray{offset_point(hit->p, n, offset_floor),
-                              sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
-                    specular_chain = false;
-                    break;
-                }
-                case MaterialType::Mirror: {
-                    const float p = average(mat.albedo);
-                    if (rng.uniform() >= p) return;
-                    power *= mat.albedo / p;
-                    ray = Ray{offset_point(hit->p, n, offset_floor),
-                              glm::normalize(reflect(ray.d, n))};
-                    break;
-                }
-                case MaterialType::Glass: {
-                    const float eta = front ? mat.ior : 1.0f / mat.ior;
-                    const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
-                    Vec3 wt;
-                    if (rng.uniform() < F || !refract(ray.d, n, eta, &wt))
-                        ray = Ray{offset_point(hit->p, n, offset_floor),
-                                  glm::normalize(reflect(ray.d, n))};
-                    else
-                        ray = Ray{offset_point(hit->p, -n, offset_floor), wt};
-                    break;
-                }
-            }
-        }
-    }
+    std::vector<Color> light_relative_power;
 };
 
 }  // namespace
+
+PhotonTracer::PhotonTracer(const Scene& scene)
+    : scene_(scene),
+      marcher_(scene.media, scene.desc.march),
+      offset_floor_(1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()))) {}
+
+// Henyey–Greenstein g at x: the medium chosen in proportion to its scattering there.
+float PhotonTracer::choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x,
+                             Rng& rng) const {
+    if (samplers.size() == 1) return samplers[0].medium().params().g;
+    std::array<float, kMaxMedia> w;
+    float sum = 0.0f;
+    for (size_t i = 0; i < samplers.size(); ++i) {
+        w[i] = samplers[i].density(x) * average(samplers[i].medium().params().sigma_s);
+        sum += w[i];
+    }
+    float u = rng.uniform() * sum;
+    for (size_t i = 0; i < samplers.size(); ++i) {
+        if (u < w[i]) return samplers[i].medium().params().g;
+        u -= w[i];
+    }
+    return samplers.back().medium().params().g;
+}
+
+TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
+                               std::vector<Medium::Sampler>& samplers, uint32_t index,
+                               std::vector<TaggedPhoton>* out) const {
+    const Scene& scene = scene_;
+    const std::array<bool, 3>& store = store_;
+    auto deposit = [&](int map, const Photon& photon) {
+        out->push_back({index, static_cast<PhotonMapId>(map), photon});
+    };
+    auto ended = [&](PathEnd end, int depth) { return TracedPath{end, ray, power, depth}; };
+    bool specular_chain = true;  // every interaction so far was specular
+    const bool has_media = !samplers.empty();
+    const int max_bounces = scene.desc.photons.max_bounces;
+    for (int depth = 0; depth < max_bounces; ++depth) {
+        std::optional<SurfaceHit> hit;
+        float t_max = kInfinity;
+        if (scene.surfaces) {
+            hit = scene.surfaces->intersect(ray, 0.0f, kInfinity);
+            if (hit) t_max = hit->t;
+        }
+        if (has_media) {
+            bool scattered = false;
+            Vec3 x;
+            if (scene.desc.march.method == FreePathMethod::March) {
+                const RayMarcher::FreePath fp =
+                    marcher_.sample_free_path(samplers, ray, t_max, rng);
+                power *= fp.weight;
+                if (fp.collided) {
+                    x = fp.x;
+                    // Russian roulette on the albedo; power changes only by channel ratios.
+                    // Only scattering events are stored (absorptions would count σ_t, not σ_s).
+                    const double p = (double(fp.sigma_s.x) + fp.sigma_s.y + fp.sigma_s.z) /
+                                     (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
+                    if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
+                    power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
+                    if (depth > 0 && store[kVolume]) deposit(kVolume, Photon(x, ray.d, power));
+                    scattered = true;
+                }
+            } else {
+                Color beta(1.0f);
+                const TrackResult tr = delta_track(samplers, ray, t_max, rng, &beta);
+                power *= beta;
+                if (tr.event == TrackEvent::Absorbed) return ended(PathEnd::Absorbed, depth + 1);
+                if (tr.event == TrackEvent::Scattered) {
+                    x = ray.at(tr.t);
+                    if (depth > 0 && store[kVolume]) deposit(kVolume, Photon(x, ray.d, power));
+                    scattered = true;
+                }
+            }
+            if (scattered) {
+                float pdf;
+                const float g = choose_g(samplers, x, rng);
+                const Vec3 d = hg_sample(ray.d, g, Vec2(rng.uniform(), rng.uniform()), &pdf);
+                ray = Ray{x, d};
+                specular_chain = false;
+                continue;
+            }
+        }
+        if (!hit) return ended(PathEnd::Escaped, depth);
+        if (hit->material < 0) return ended(PathEnd::Absorbed, depth);
+        const Material& mat = scene.materials[hit->material];
+        const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
+        const Vec3 n = front ? hit->ng : -hit->ng;  // faces where the photon came from
+        switch (mat.type) {
+            case MaterialType::Diffuse: {
+                if (depth > 0) {
+                    // Surface photons keep the normal of the side they arrived on (Lambertian
+                    // surfaces need no direction; see photon.h).
+                    const bool caustic = specular_chain;
+                    if (store[kGlobal])
+                        deposit(kGlobal, Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0));
+                    if (caustic && store[kCaustic]) deposit(kCaustic, Photon(hit->p, n, power));
+                }
+                const float p = average(mat.albedo);
+                if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
+                power *= mat.albedo / p;
+                ray = Ray{offset_point(hit->p, n, offset_floor_),
+                          sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
+                specular_chain = false;
+                break;
+            }
+            case MaterialType::Mirror: {
+                const float p = average(mat.albedo);
+                if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
+                power *= mat.albedo / p;
+                ray =
+                    Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
+                break;
+            }
+            case MaterialType::Glass: {
+                const float eta = front ? mat.ior : 1.0f / mat.ior;
+                const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
+                Vec3 wt;
+                if (rng.uniform() < F || !refract(ray.d, n, eta, &wt))
+                    ray = Ray{offset_point(hit->p, n, offset_floor_),
+                              glm::normalize(reflect(ray.d, n))};
+                else
+                    ray = Ray{offset_point(hit->p, -n, offset_floor_), wt};
+                break;
+            }
+        }
+    }
+    return ended(PathEnd::BounceCap, max_bounces);
+}
 
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet) {
     const Timer timer;
@@ -182,22 +177,33 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     }
     if (largest == 0) return result;
 
-    Tracer tracer{scene, settings, {}, RayMarcher(scene.media, scene.desc.march), {}, {}, 0.0f};
+    PhotonTracer tracer(scene);
+    Emitter emitter;
     float cumulative = 0.0f;
     for (const Light& l : scene.lights) {
         const Color power = light_power(l, scene.bounds);
         const float avg = average(power);
         cumulative += avg;
-        tracer.light_cdf.push_back(cumulative);
-        tracer.light_relative_power.push_back(avg > 0.0f ? power / avg : Color(0.0f));
+        emitter.light_cdf.push_back(cumulative);
+        emitter.light_relative_power.push_back(avg > 0.0f ? power / avg : Color(0.0f));
     }
     result.total_power = cumulative;
     if (!(cumulative > 0.0f)) {
         result.warnings.push_back("no light emits power: no photons traced");
         return result;
     }
-    tracer.offset_floor =
-        1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()));
+    // Light ∝ power, then a photon from it, traced.
+    auto emit = [&](uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
+                    std::vector<TaggedPhoton>& out) {
+        const float pick = rng.uniform() * emitter.light_cdf.back();
+        const size_t li = std::min<size_t>(
+            std::upper_bound(emitter.light_cdf.begin(), emitter.light_cdf.end(), pick) -
+                emitter.light_cdf.begin(),
+            emitter.light_cdf.size() - 1);
+        Ray ray;
+        if (!sample_photon(scene.lights[li], scene.bounds, rng, &ray)) return;
+        tracer.trace(ray, emitter.light_relative_power[li], rng, samplers, index, &out);
+    };
 
     const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
     std::array<uint64_t, 3> full_at{0, 0, 0};
@@ -211,8 +217,10 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     while (unfilled() && result.emitted < cap) {
         const uint64_t n = std::min(kBatch, cap - result.emitted);
         const uint64_t chunks = (n + kChunk - 1) / kChunk;
-        std::vector<std::vector<Tagged>> out(chunks);
-        for (int m = 0; m < 3; ++m) tracer.store[m] = maps[m] && full_at[m] == 0;
+        std::vector<std::vector<TaggedPhoton>> out(chunks);
+        std::array<bool, 3> store;
+        for (int m = 0; m < 3; ++m) store[m] = maps[m] && full_at[m] == 0;
+        tracer.set_store(store);
         const uint64_t base = result.emitted;
         tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
             std::vector<Medium::Sampler> samplers;
@@ -220,18 +228,19 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
             for (uint64_t c = r.begin(); c != r.end(); ++c) {
                 for (uint64_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
                     Rng rng(scene.desc.render.seed, base + i, kPhotonStream);
-                    tracer.trace(static_cast<uint32_t>(i), rng, samplers, out[c]);
+                    emit(static_cast<uint32_t>(i), rng, samplers, out[c]);
                 }
             }
         });
         // Merge in emission order; a map stops at the photon that fills it (whole path kept).
-        for (const std::vector<Tagged>& chunk : out) {
-            for (const Tagged& t : chunk) {
-                StoredPhotons& map = *maps[t.map];
+        for (const std::vector<TaggedPhoton>& chunk : out) {
+            for (const TaggedPhoton& t : chunk) {
+                const int m = static_cast<int>(t.map);
+                StoredPhotons& map = *maps[m];
                 const uint64_t e = base + t.index;
-                if (full_at[t.map] != 0 && e >= full_at[t.map]) continue;
+                if (full_at[m] != 0 && e >= full_at[m]) continue;
                 map.photons.push_back(t.photon);
-                if (map.photons.size() >= map.budget && full_at[t.map] == 0) full_at[t.map] = e + 1;
+                if (map.photons.size() >= map.budget && full_at[m] == 0) full_at[m] = e + 1;
             }
         }
         result.emitted += n;

@@ -6,12 +6,16 @@
 // events after at least one interaction (the first interaction from a light is left to shadow
 // rays). Shooting goes on until each map holds its budget or photons.max_emitted have left.
 // Deterministic: photon i draws from Rng(seed, i, kPhotonStream) and batches merge in index order.
+// PhotonTracer, the per-photon part, is public so that `fogmap validate` traces its beams with
+// exactly this code.
 
+#include "media/ray_march.h"
 #include "photon/kd_tree.h"
 #include "photon/photon.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +39,58 @@ struct PhotonPassResult {
 
 /// Runs the photon pass for the maps the plan turns on. Progress on stderr unless quiet.
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet);
+
+/// The maps a path deposits photons into.
+enum class PhotonMapId : uint8_t { Global = 0, Caustic = 1, Volume = 2 };
+
+/// A photon a path deposits: its emission index within the batch, its map and the record.
+struct TaggedPhoton {
+    uint32_t index;
+    PhotonMapId map;
+    Photon photon;
+};
+
+/// How a photon path ended.
+enum class PathEnd {
+    Escaped,    ///< left the scene: no surface ahead and no collision in the media
+    Absorbed,   ///< Russian roulette (medium or surface), or it hit a light's black geometry
+    BounceCap,  ///< still alive after photons.max_bounces interactions: dropped
+};
+
+struct TracedPath {
+    PathEnd end = PathEnd::Absorbed;
+    Ray ray;               ///< the last ray: an escaped photon leaves along it
+    Color power{0.0f};     ///< power at the end (relative, as passed in)
+    int interactions = 0;  ///< medium scatterings and surface bounces
+};
+
+/// The photon pass's per-photon tracer (trace_photons runs it for every emitted photon; `fogmap
+/// validate` runs it on its own beams): free paths by ray marching or delta tracking as the scene's
+/// march settings say, Russian roulette on albedo, at most photons.max_bounces interactions.
+/// Immutable and shared const by all threads; samplers are per thread.
+class PhotonTracer {
+public:
+    explicit PhotonTracer(const Scene& scene);
+
+    /// Which maps take photons (global, caustic, volume); none by default. Not during trace().
+    void set_store(const std::array<bool, 3>& store) { store_ = store; }
+
+    /// Follows a photon leaving along `ray` (unit direction) with relative `power`, drawing only
+    /// from `rng`. Photons the maps take are appended to *out, tagged with `index`; out may be
+    /// null when no map takes photons. `samplers`: one per medium of the scene, this thread's.
+    TracedPath trace(Ray ray, Color power, Rng& rng, std::vector<Medium::Sampler>& samplers,
+                     uint32_t index, std::vector<TaggedPhoton>* out) const;
+
+    const RayMarcher& marcher() const { return marcher_; }
+
+private:
+    float choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x, Rng& rng) const;
+
+    const Scene& scene_;
+    RayMarcher marcher_;
+    std::array<bool, 3> store_{false, false, false};
+    float offset_floor_;
+};
 
 /// A built map: its kd-tree and the world power of a photon whose relative power is 1.
 struct PhotonMap {

@@ -30,6 +30,13 @@ std::string number(double v) {
     return buf;
 }
 
+/// Four significant digits for the summary table.
+std::string short_number(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.4g", v);
+    return buf;
+}
+
 std::string padded(const std::string& s, size_t width) {
     return s.size() >= width ? s + " " : s + std::string(width - s.size(), ' ');
 }
@@ -88,7 +95,7 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
     row.spp = desc.render.spp;
     row.repeats = std::max(repeats, 1);
     std::vector<std::vector<double>> phases(kBenchPhases.size());
-    std::vector<double> totals;
+    std::vector<double> totals, rmse, rel_mse, bias;
     for (int rep = 0; rep < row.repeats; ++rep) {
         const Timer timer;
         const PipelineResult result = run_pipeline(desc, /*quiet=*/true);
@@ -99,17 +106,20 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
                 if (name == kBenchPhases[p]) s += t;
             phases[p].push_back(s);
         }
+        const ImageError e = image_error(result.aov.beauty, reference);
+        rmse.push_back(e.rmse);
+        rel_mse.push_back(e.rel_mse);
+        bias.push_back(e.bias);
         if (rep > 0) continue;
         for (const MapReport& m : result.report.maps) {
             row.bytes += m.bytes;
             for (size_t i = 0; i < kBenchMaps.size(); ++i)
                 if (m.name == kBenchMaps[i]) row.stored[i] = m.stored;
         }
-        const ImageError e = image_error(result.aov.beauty, reference);
-        row.rmse = e.rmse;
-        row.rel_mse = e.rel_mse;
-        row.bias = e.bias;
     }
+    row.rmse = median(rmse);
+    row.rel_mse = median(rel_mse);
+    row.bias = median(bias);
     for (size_t p = 0; p < kBenchPhases.size(); ++p) row.phase_s[p] = median(phases[p]);
     row.total_s = median(totals);
     return row;
@@ -194,20 +204,20 @@ std::string bench_summary(const std::vector<BenchRow>& rows,
         bool extrapolated = false;
         const double pe = path_error_at(path, r.total_s, &extrapolated);
         const std::string pe_text =
-            std::isnan(pe) ? "-" : number(pe) + (extrapolated ? "*" : "");
+            std::isnan(pe) ? "-" : short_number(pe) + (extrapolated ? "*" : "");
         const std::string ratio =
-            std::isnan(pe) || r.rel_mse <= 0.0 ? "-" : number(pe / r.rel_mse) + "x";
-        out << "  " << padded(number(r.total_s), 10) << padded(number(r.rel_mse), 12)
+            std::isnan(pe) || r.rel_mse <= 0.0 ? "-" : short_number(pe / r.rel_mse) + "x";
+        out << "  " << padded(short_number(r.total_s), 10) << padded(short_number(r.rel_mse), 12)
             << padded(pe_text, 14) << padded(ratio, 13) << bench_label(r, swept_keys) << "\n";
     }
     if (photon.empty()) out << "  (no photon runs)\n";
     out << "  (path relMSE: the path tracer at the same total time, interpolated log-log between "
-           "its runs; * = extrapolated)\n";
+           "its runs; * = extrapolated; path/photon > 1: the photon map has the lower error)\n";
     out << "Path tracer:\n";
     out << "  " << padded("total_s", 10) << padded("relMSE", 12) << "spp\n";
     for (const BenchRow* r : path)
-        out << "  " << padded(number(r->total_s), 10) << padded(number(r->rel_mse), 12) << r->spp
-            << "\n";
+        out << "  " << padded(short_number(r->total_s), 10) << padded(short_number(r->rel_mse), 12)
+            << r->spp << "\n";
     if (path.empty()) out << "  (no path runs)\n";
     return out.str();
 }

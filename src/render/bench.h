@@ -26,27 +26,27 @@ std::vector<std::vector<std::string>> sweep_runs(const std::vector<SweepAxis>& a
 
 /// Phases reported by run_pipeline, in CSV order; a phase a run does not have is 0.
 inline constexpr std::array<const char*, 7> kBenchPhases{
-    "load",         "photon pass",           "build global", "build caustic",
-    "build volume", "irradiance precompute", "render"};
+    "load", "photon pass", "build global", "build caustic", "build volume", "precompute", "render"};
 /// Photon maps, in CSV order.
 inline constexpr std::array<const char*, 3> kBenchMaps{"global", "caustic", "volume"};
 
 /// One run of the sweep: its settings, median times and error against the reference.
 struct BenchRow {
-    std::string method;                      ///< "photon" or "path" (render.integrator)
-    std::vector<std::string> swept;          ///< value of each swept key ("" = not swept here)
-    int spp = 0;                             ///< render.spp of the run
-    int repeats = 0;                         ///< runs the medians are taken over
+    std::string method;              ///< "photon" or "path" (render.integrator)
+    std::vector<std::string> swept;  ///< value of each swept key ("" = not swept here)
+    int spp = 0;                     ///< render.spp of the run
+    int repeats = 0;                 ///< runs the medians are taken over
     std::array<double, kBenchPhases.size()> phase_s{};  ///< median wall time per phase
-    double total_s = 0.0;                    ///< median wall time of the whole run_pipeline
-    std::array<uint64_t, kBenchMaps.size()> stored{};   ///< photons stored per map
-    uint64_t bytes = 0;                      ///< all maps: records + trees
-    double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference (first repeat)
+    double total_s = 0.0;  ///< median wall time of the whole run_pipeline
+    std::array<uint64_t, kBenchMaps.size()> stored{};  ///< photons stored per map
+    uint64_t bytes = 0;                                ///< all maps: records + trees
+    double rmse = 0.0, rel_mse = 0.0, bias = 0.0;      ///< against the reference (medians)
 };
 
-/// Runs `desc` `repeats` (>= 1) times through run_pipeline (quietly) and measures the first
-/// image against `reference` (same size, checked by the caller). Deterministic images per seed,
-/// so only the times vary between repeats. Throws what run_pipeline throws.
+/// Runs `desc` `repeats` (>= 1) times through run_pipeline (quietly) and measures each image
+/// against `reference` (same size, checked by the caller); times and errors are medians over the
+/// repeats (images are deterministic per seed, so normally only the times vary). Throws what
+/// run_pipeline throws.
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference);
 
 /// Median of `v` (mean of the middle two for an even count); 0 for an empty vector.

@@ -11,6 +11,7 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 
 namespace fogmap {
@@ -69,23 +70,29 @@ GatherRadii gather_radii(const Scene& scene) {
             d.volume.radius > 0.0f ? d.volume.radius : 0.05f * media_diag};
 }
 
-PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps)
+PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
+                                   const GatherOverride* gather)
     : scene_(scene),
       maps_(maps),
       marcher_(scene.media, scene.desc.march),
-      radii_(gather_radii(scene)) {
+      radii_(gather ? gather->radii : gather_radii(scene)),
+      k_global_(gather && gather->fixed_radius ? 0 : scene.desc.global.k),
+      k_caustic_(gather && gather->fixed_radius ? 0 : scene.desc.caustic.k),
+      k_volume_(gather && gather->fixed_radius ? 0 : scene.desc.volume.k) {
     offset_floor_ = 1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()));
-    if (!scene.desc.global.final_gather || !maps.global || maps.global->tree.empty()) return;
     const Timer timer;
+    if (scene.desc.volume.estimator == VolumeEstimator::Beam && maps.volume)
+        beam_ = std::make_unique<BeamTree>(*maps.volume, k_volume_, radii_.volume);
+    if (beam_) precompute_s_ = timer.seconds();
+    if (!scene.desc.global.final_gather || !maps.global || maps.global->tree.empty()) return;
     const std::vector<Photon>& photons = maps.global->tree.records();
     std::vector<IrradiancePoint> points((photons.size() + 3) / 4);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size()), [&](const auto& r) {
         NeighborList scratch;
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Photon& p = photons[4 * i];
-            const Color e =
-                surface_irradiance(*maps.global, p.position(), p.direction(), scene.desc.global.k,
-                                   radii_.global, 0.0f, 0, scratch);
+            const Color e = surface_irradiance(*maps.global, p.position(), p.direction(), k_global_,
+                                               radii_.global, 0.0f, 0, scratch);
             points[i] =
                 IrradiancePoint{{p.pos[0], p.pos[1], p.pos[2]}, p.dir_oct, 3, 0, {e.x, e.y, e.z}};
         }
@@ -174,8 +181,7 @@ Color PhotonIntegrator::global_irradiance(const Vec3& p, const Vec3& n, ThreadSt
         }
         if (found) return Color(found->e[0], found->e[1], found->e[2]);
     }
-    return surface_irradiance(*maps_.global, p, n, scene_.desc.global.k, radii_.global, 0.0f, 0,
-                              ts.neighbors);
+    return surface_irradiance(*maps_.global, p, n, k_global_, radii_.global, 0.0f, 0, ts.neighbors);
 }
 
 Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
@@ -206,12 +212,12 @@ void PhotonIntegrator::light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, S
     for (const LitStep& st : ts.steps)
         out->volume_single +=
             st.weight * st.sigma_s * single_scatter(st.x, dir, phase_g(ts, st.x), rng, ts);
-    if (!maps_.volume) return;
+    if (!maps_.volume || beam_) return;
     const SceneDesc& desc = scene_.desc;
     auto gather = [&](const LitStep& st, float factor) {
         out->volume_multiple += factor * st.weight *
                                 volume_inscattered(*maps_.volume, st.x, -dir, phase_g(ts, st.x),
-                                                   desc.volume.k, radii_.volume, ts.neighbors);
+                                                   k_volume_, radii_.volume, ts.neighbors);
     };
     const size_t n = ts.steps.size(), m = static_cast<size_t>(desc.volume.lookups_per_ray);
     if (m == 0 || n <= m) {
@@ -219,22 +225,44 @@ void PhotonIntegrator::light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, S
         return;
     }
     // Multiple scattering (smooth along the ray): m volume-map lookups at steps drawn by
-    // stratified importance sampling ∝ q_k = luminance(weight · σ_s), each weighted Q / (m q_k),
+    // stratified importance sampling ∝ q_k = luminance(weight) — the transmittance-weighted step
+    // length, not σ_s(x_k): the estimate is a blurred density, nonzero where σ_s(x_k) is small,
+    // and weighting by σ_s(x_k) made such steps rare and their picks bright. Each pick weighs
+    // Q / (m q_k),
     // so the expectation is the full march sum.
     double total = 0.0;
-    for (const LitStep& st : ts.steps) total += luminance(st.weight * st.sigma_s);
+    for (const LitStep& st : ts.steps) total += luminance(st.weight);
     if (!(total > 0.0)) return;
     size_t k = 0;
-    double cumulative = luminance(ts.steps[0].weight * ts.steps[0].sigma_s);
+    double cumulative = luminance(ts.steps[0].weight);
     for (size_t j = 0; j < m; ++j) {
         const double target = (j + rng.uniform()) * total / m;
         while (cumulative < target && k + 1 < n) {
             ++k;
-            cumulative += luminance(ts.steps[k].weight * ts.steps[k].sigma_s);
+            cumulative += luminance(ts.steps[k].weight);
         }
-        const double q = luminance(ts.steps[k].weight * ts.steps[k].sigma_s);
+        const double q = luminance(ts.steps[k].weight);
         if (q > 0.0) gather(ts.steps[k], static_cast<float>(total / (m * q)));
     }
+}
+
+// Σ_p p(θ_p) ΔΦ_p T(0, t_p) K(d_p) over the photons whose spheres the marched segment crosses,
+// T from the march's own optical-depth table (the heterogeneous medium itself).
+Color PhotonIntegrator::beam_estimate(const Ray& ray, ThreadState& ts) const {
+    const std::vector<DepthStep>& depth = ts.depth;
+    const float t0 = depth.front().t0, t1 = depth.back().t1;
+    const bool one_medium = ts.media.size() == 1;
+    Color sum(0.0f);
+    beam_->for_each_hit(ray, t0, t1, [&](const Photon& p, float t, float kernel) {
+        // The step holding t (or the gap before it: τ stays at the previous step's end).
+        const auto it = std::upper_bound(depth.begin(), depth.end(), t,
+                                         [](float v, const DepthStep& s) { return v < s.t1; });
+        if (it == depth.end()) return;
+        const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
+        const float g = one_medium ? ts.media[0].medium().params().g : phase_g(ts, p.position());
+        sum += hg_phase(glm::dot(p.direction(), -ray.d), g) * kernel * exp_neg(tau) * p.power();
+    });
+    return sum * maps_.volume->photon_power;
 }
 
 PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng,
@@ -254,15 +282,19 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
         if (!ts.media.empty()) {
             Color tau(0.0f);
             ts.steps.clear();
+            ts.depth.clear();
+            const bool beam = beam_ != nullptr;
             marcher_.march(ts.media, ray, t_max, rng.uniform(), [&](const MarchStep& s) {
                 const float h = s.t1 - s.t0;
                 if (max_component(s.sigma_s) > 0.0f)
                     ts.steps.push_back(
                         {s.x, beta * exp_neg(tau) * step_weight(s.sigma_t, h), s.sigma_s});
+                if (beam) ts.depth.push_back({s.t0, s.t1, tau, s.sigma_t});
                 tau += s.sigma_t * h;
                 return max_component(exp_neg(tau)) > 1e-6f;  // nothing visible beyond
             });
             light_steps(ray.d, rng, ts, &out);
+            if (beam && !ts.depth.empty()) out.volume_multiple += beta * beam_estimate(ray, ts);
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }
@@ -284,7 +316,7 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
             if (maps_.caustic)
                 out.caustic +=
                     beta * mat.albedo * kInvPi *
-                    surface_irradiance(*maps_.caustic, hit->p, n, desc.caustic.k, radii_.caustic,
+                    surface_irradiance(*maps_.caustic, hit->p, n, k_caustic_, radii_.caustic,
                                        desc.caustic.cone_filter, 0, ts.neighbors);
             if (maps_.global) {
                 if (desc.global.final_gather)
@@ -292,8 +324,8 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
                 else
                     out.indirect +=
                         beta * mat.albedo * kInvPi *
-                        surface_irradiance(*maps_.global, hit->p, n, desc.global.k, radii_.global,
-                                           0.0f, Photon::kCaustic, ts.neighbors);
+                        surface_irradiance(*maps_.global, hit->p, n, k_global_, radii_.global, 0.0f,
+                                           Photon::kCaustic, ts.neighbors);
             }
             break;
         }
@@ -316,10 +348,11 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
 }
 
 AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
-                        bool quiet, RenderStats* stats, double* precompute_s) {
+                        bool quiet, RenderStats* stats, double* precompute_s,
+                        const GatherOverride* gather) {
     const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    const PhotonIntegrator integrator(scene, maps);
+    const PhotonIntegrator integrator(scene, maps, gather);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     const Camera camera(scene.desc.camera);
     const int w = camera.width(), h = camera.height();

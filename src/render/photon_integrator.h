@@ -12,6 +12,7 @@
 
 #include "core/image.h"
 #include "media/ray_march.h"
+#include "photon/beam_tree.h"
 #include "photon/photon_pass.h"
 #include "render/path_tracer.h"
 
@@ -30,10 +31,18 @@ struct GatherRadii {
 };
 GatherRadii gather_radii(const Scene& scene);
 
+/// Gathers with given radii; with fixed_radius every photon within the radius counts (k is
+/// ignored), as progressive photon mapping needs.
+struct GatherOverride {
+    GatherRadii radii;
+    bool fixed_radius = true;
+};
+
 class PhotonIntegrator {
 public:
     /// Precomputes irradiance at every fourth global photon when final gathering is on.
-    PhotonIntegrator(const Scene& scene, const PhotonMaps& maps);
+    PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
+                     const GatherOverride* gather = nullptr);
     ~PhotonIntegrator();
 
     /// A march step where light can scatter towards the camera.
@@ -42,10 +51,16 @@ public:
         Color weight;  ///< throughput × transmittance × ∫ over the step of e^{−σ_t s} ds
         Color sigma_s;
     };
+    /// Optical depth along the current camera ray: τ at t0 of each march step (beam estimate).
+    struct DepthStep {
+        float t0, t1;
+        Color tau0, sigma_t;
+    };
     struct ThreadState {
         std::vector<Medium::Sampler> media;
         NeighborList neighbors;
         std::vector<LitStep> steps;
+        std::vector<DepthStep> depth;
         uint64_t rays = 0;
     };
     ThreadState make_state() const;
@@ -60,7 +75,9 @@ public:
     /// One camera sample along ray (unit direction).
     Sample radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
 
+    /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
     double precompute_s() const { return precompute_s_; }
+    const BeamTree* beam_tree() const { return beam_.get(); }
 
 private:
     struct Irradiance;
@@ -68,6 +85,7 @@ private:
                          ThreadState& ts) const;
     Color single_scatter(const Vec3& x, const Vec3& dir, float g, Rng& rng, ThreadState& ts) const;
     void light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, Sample* out) const;
+    Color beam_estimate(const Ray& ray, ThreadState& ts) const;
     Color shadow_transmittance(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;
     Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;
@@ -77,13 +95,16 @@ private:
     const PhotonMaps& maps_;
     RayMarcher marcher_;
     GatherRadii radii_;
+    int k_global_, k_caustic_, k_volume_;  ///< 0 = all photons within the radius
     float offset_floor_;
     std::unique_ptr<Irradiance> irradiance_;
+    std::unique_ptr<BeamTree> beam_;
     double precompute_s_ = 0.0;
 };
 
-/// Renders all AOVs with the photon integrator.
+/// Renders all AOVs with the photon integrator (gather radii from the scene unless `gather`).
 AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
-                        bool quiet, RenderStats* stats, double* precompute_s);
+                        bool quiet, RenderStats* stats, double* precompute_s,
+                        const GatherOverride* gather = nullptr);
 
 }  // namespace fogmap

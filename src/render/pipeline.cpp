@@ -47,7 +47,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet) {
         }
         double precompute_s = 0.0;
         out.aov = render_photon(*scene, maps, desc.render, quiet, &stats, &precompute_s);
-        if (precompute_s > 0.0) report.phases_s.emplace_back("irradiance precompute", precompute_s);
+        if (precompute_s > 0.0) report.phases_s.emplace_back("precompute", precompute_s);
         out.layered = true;
     } else {
         out.aov.beauty = render_path(*scene, desc.render, quiet, &stats);

@@ -42,6 +42,11 @@ std::string report_text(const Report& r) {
     out << "rays: " << r.rays << " (" << fixed(per_second(r.rays, r.render_s), 0)
         << " per second)\n";
     out << "non-finite samples dropped: " << r.nonfinite << "\n";
+    for (const auto& it : r.iterations)
+        out << "iteration " << it["index"] << ": " << fixed(it["elapsed_s"].get<double>(), 2)
+            << " s, radii " << it["radii"].dump()
+            << (it["rel_mse"].get<double>() >= 0.0 ? ", relmse " + it["rel_mse"].dump() : "")
+            << "\n";
     out << "image mean: " << r.mean << "\n";
     if (!r.reference.empty())
         out << "error vs " << r.reference << ": rmse " << r.rmse << ", relmse " << r.rel_mse
@@ -82,6 +87,7 @@ nlohmann::json report_json(const Report& r) {
             {"photons_emitted", r.photons_emitted},
             {"maps", maps},
             {"mean", r.mean},
+            {"iterations", r.iterations.is_null() ? nlohmann::json::array() : r.iterations},
             {"reference", r.reference.empty() ? nlohmann::json()
                                               : nlohmann::json{{"file", r.reference},
                                                                {"rmse", r.rmse},

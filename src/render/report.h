@@ -32,8 +32,9 @@ struct Report {
     nlohmann::json plan;               ///< the same as JSON
     std::vector<MapReport> maps;       ///< photon maps built
     uint64_t photons_emitted = 0;
-    double mean = 0.0;      ///< mean of the beauty image over pixels and channels
-    std::string reference;  ///< reference image, "" = none
+    nlohmann::json iterations;  ///< progressive runs: one entry per iteration
+    double mean = 0.0;          ///< mean of the beauty image over pixels and channels
+    std::string reference;      ///< reference image, "" = none
     double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference
 };
 

@@ -120,9 +120,12 @@ struct CausticGatherSettings {
     float cone_filter = 0.0f;  ///< Jensen's k_f; 0 = box filter
 };
 
-enum class VolumeEstimator { Sphere };
+/// sphere: point queries along the camera march; beam: one query per ray segment over photon
+/// spheres (Jarosz, Zwicker, Jensen 2008).
+enum class VolumeEstimator { Sphere, Beam };
 
-/// Volume map: spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates).
+/// Volume map: spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates), or the
+/// beam estimate with per-photon radii (the k-th neighbour's distance, at most `radius`).
 struct VolumeGatherSettings {
     int k = 50;
     float radius = 0.0f;  ///< max radius, world units; 0 = 5% of the media diagonal

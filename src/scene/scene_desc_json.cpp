@@ -29,7 +29,8 @@ constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, 
                                                ShapeType::Mesh};
 constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
 constexpr std::array<Integrator, 2> kIntegrators{Integrator::Path, Integrator::Photon};
-constexpr std::array<VolumeEstimator, 1> kVolumeEstimators{VolumeEstimator::Sphere};
+constexpr std::array<VolumeEstimator, 2> kVolumeEstimators{VolumeEstimator::Sphere,
+                                                           VolumeEstimator::Beam};
 constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
                                                          FreePathMethod::Delta};
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace fogmap {
 
@@ -73,6 +74,8 @@ const char* to_string(VolumeEstimator t) {
     switch (t) {
         case VolumeEstimator::Sphere:
             return "sphere";
+        case VolumeEstimator::Beam:
+            return "beam";
     }
     return "?";
 }
@@ -315,6 +318,17 @@ void check_medium(const SceneDesc& desc, size_t i) {
     k.non_negative("sigma_s", m.sigma_s);
     k.non_negative("sigma_a", m.sigma_a);
     k.non_negative("density_scale", m.density_scale);
+    // The media use (sigma_s + sigma_a) * density_scale per unit density (scene.cpp): each finite
+    // factor can still overflow float in the product, and an infinite sigma_t makes delta
+    // tracking divide Inf by Inf (NaN) or walk forever. Checked in double, per channel.
+    for (int c = 0; c < 3; ++c) {
+        const double sigma_t = (double(m.sigma_s[c]) + m.sigma_a[c]) * m.density_scale;
+        if (sigma_t > double(std::numeric_limits<float>::max())) {
+            k.fail("density_scale", "(sigma_s + sigma_a) * density_scale must stay below " +
+                                        num(std::numeric_limits<float>::max()) + "; found " +
+                                        num(sigma_t) + " (channel " + std::to_string(c) + ")");
+        }
+    }
     if (!std::isfinite(m.g) || m.g <= -1.0f || m.g >= 1.0f) {
         k.fail("g", "g must be in (-1, 1); found " + num(m.g));
     }

@@ -332,9 +332,9 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
     EXPECT_EQ(path.field, "/render/integrator");
     EXPECT_EQ(path.reason, "unknown integrator 'bdpt'; expected one of: path, photon");
 
-    const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "beam"}})"));
+    const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "cone"}})"));
     EXPECT_EQ(estimator.field, "/volume/estimator");
-    EXPECT_EQ(estimator.reason, "unknown volume estimator 'beam'; expected one of: sphere");
+    EXPECT_EQ(estimator.reason, "unknown volume estimator 'cone'; expected one of: sphere, beam");
 
     const InputError method = parse_error(json::parse(R"({"march": {"method": "ratio"}})"));
     EXPECT_EQ(method.field, "/march/method");

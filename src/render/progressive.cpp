@@ -1,0 +1,149 @@
+#include "render/progressive.h"
+
+#include "core/rng.h"
+#include "core/timer.h"
+#include "photon/photon_pass.h"
+#include "render/metrics.h"
+#include "scene/plan.h"
+#include "scene/scene.h"
+#include "scene/scene_desc_json.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace fogmap {
+
+namespace {
+
+void accumulate(AovImages& sum, const AovImages& add) {
+    Image* to[] = {&sum.beauty,          &sum.direct,  &sum.volume_single,
+                   &sum.volume_multiple, &sum.caustic, &sum.indirect};
+    const Image* from[] = {&add.beauty,          &add.direct,  &add.volume_single,
+                           &add.volume_multiple, &add.caustic, &add.indirect};
+    for (int l = 0; l < 6; ++l) {
+        if (to[l]->pixels.empty()) *to[l] = Image(from[l]->width, from[l]->height);
+        for (size_t i = 0; i < from[l]->pixels.size(); ++i) to[l]->pixels[i] += from[l]->pixels[i];
+    }
+}
+
+AovImages scaled(const AovImages& sum, float s) {
+    AovImages out = sum;
+    for (Image* img : {&out.beauty, &out.direct, &out.volume_single, &out.volume_multiple,
+                       &out.caustic, &out.indirect})
+        for (Color& c : img->pixels) c *= s;
+    return out;
+}
+
+// Median distance to the k-th nearest photon over up to 256 photons spread through the map: a
+// starting radius that holds about k photons where photons are (Hachisuka et al. start from a
+// k-NN radius too).
+float initial_radius(const PhotonMap& map, int k, float fallback) {
+    const std::vector<Photon>& photons = map.tree.records();
+    if (photons.size() <= static_cast<size_t>(k)) return fallback;
+    const size_t samples = std::min<size_t>(256, photons.size());
+    std::vector<float> r;
+    NeighborList scratch;
+    for (size_t i = 0; i < samples; ++i) {
+        map.tree.knn(photons[i * photons.size() / samples].position(), k, fallback, &scratch);
+        r.push_back(static_cast<int>(scratch.size()) >= k ? std::sqrt(scratch.max_dist2())
+                                                          : fallback);
+    }
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    return r[r.size() / 2];
+}
+
+}  // namespace
+
+float next_radius(float radius, int i, float alpha, int dimensions) {
+    const double ratio = (i + static_cast<double>(alpha)) / (i + 1.0);
+    return static_cast<float>(radius * std::pow(ratio, 1.0 / dimensions));
+}
+
+ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettings& settings,
+                                  const Image* reference, bool quiet) {
+    ProgressiveResult result;
+    Report& report = result.report;
+    const Timer timer;
+    const Plan plan = make_plan(desc);
+    report.plan_text = plan_text(plan);
+    report.plan = plan_json(plan);
+    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
+    // The scene is loaded once; each iteration changes only its seed (photons and camera).
+    const std::unique_ptr<Scene> scene = load_scene(desc);
+    report.phases_s.emplace_back("load", timer.seconds());
+    const int threads =
+        desc.render.threads > 0 ? desc.render.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+
+    GatherOverride gather{gather_radii(*scene), true};
+    AovImages sum;
+    double photon_s = 0.0, build_s = 0.0, render_s = 0.0;
+    for (int i = 1;; ++i) {
+        scene->desc.render.seed = mix64(desc.render.seed * 0x9E3779B97F4A7C15ull + i);
+        PhotonPassResult pass = trace_photons(*scene, plan, true);
+        photon_s += pass.time_s;
+        report.photons_emitted += pass.emitted;
+        const Timer build;
+        const PhotonMaps maps = build_trees(std::move(pass));
+        build_s += build.seconds();
+        if (i == 1) {  // radii the scene leaves at 0 start from the first maps' photon density
+            if (maps.global && desc.global.radius == 0.0f)
+                gather.radii.global =
+                    initial_radius(*maps.global, desc.global.k, gather.radii.global);
+            if (maps.caustic && desc.caustic.radius == 0.0f)
+                gather.radii.caustic =
+                    initial_radius(*maps.caustic, desc.caustic.k, gather.radii.caustic);
+            if (maps.volume && desc.volume.radius == 0.0f)
+                gather.radii.volume =
+                    initial_radius(*maps.volume, desc.volume.k, gather.radii.volume);
+        }
+        RenderStats stats;
+        const AovImages aov =
+            render_photon(*scene, maps, scene->desc.render, true, &stats, nullptr, &gather);
+        render_s += stats.render_s;
+        report.samples += stats.samples;
+        report.rays += stats.rays;
+        report.nonfinite += stats.nonfinite;
+        report.threads = stats.threads;
+        accumulate(sum, aov);
+
+        ProgressiveIteration it;
+        it.index = i;
+        it.elapsed_s = timer.seconds();
+        it.radii = gather.radii;
+        for (const auto* map : {&maps.global, &maps.caustic, &maps.volume})
+            if (*map) it.photon_bytes += (*map)->tree.bytes();
+        if (reference) it.rel_mse = image_error(scaled(sum, 1.0f / i).beauty, *reference).rel_mse;
+        result.iterations.push_back(it);
+        if (!quiet)
+            std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n", i,
+                         it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
+                         reference ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
+
+        gather.radii.global = next_radius(gather.radii.global, i, settings.alpha, 2);
+        gather.radii.caustic = next_radius(gather.radii.caustic, i, settings.alpha, 2);
+        gather.radii.volume = next_radius(gather.radii.volume, i, settings.alpha, 3);
+        if (settings.max_iterations > 0 && i >= settings.max_iterations) break;
+        if (settings.time_budget_s > 0.0 && timer.seconds() >= settings.time_budget_s) break;
+        if (settings.max_iterations <= 0 && settings.time_budget_s <= 0.0) break;
+    }
+    const int n = static_cast<int>(result.iterations.size());
+    result.aov = scaled(sum, 1.0f / n);
+    report.phases_s.emplace_back("photon pass", photon_s);
+    report.phases_s.emplace_back("build", build_s);
+    report.phases_s.emplace_back("render", render_s);
+    report.scene = desc.path;
+    report.settings = settings_json(desc);
+    report.width = result.aov.beauty.width;
+    report.height = result.aov.beauty.height;
+    report.spp = desc.render.spp * n;
+    report.render_s = render_s;
+    report.mean = result.aov.beauty.mean();
+    return result;
+}
+
+}  // namespace fogmap

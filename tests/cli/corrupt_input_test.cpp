@@ -1,0 +1,240 @@
+// Hostile input through the fogmap command line (issue 5, part 5): truncated and bit-flipped VDB
+// files, truncated JSON, JSON with huge numbers or deep nesting, a PLY whose header claims 1e12
+// vertices. Each must end with exit code 2, exactly one message line "fogmap: error: <file>: ...",
+// no new file in the output folder and an existing output left untouched. The corrupted files
+// are made by the test from ../shared/volumes in a temp folder (never committed).
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace fogmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+    int code = -1;
+    bool signaled = false;
+    std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+void spit(const fs::path& p, const std::string& bytes) {
+    std::ofstream(p, std::ios::binary) << bytes;
+}
+
+class CorruptInput : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() /
+               ("fogmap_corrupt_" +
+                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_ / "out");
+        spit(dir_ / "out" / "old.exr", "an older render");
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    RunResult run(const std::string& args) {
+        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+        const std::string cmd =
+            std::string(FOGMAP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
+        const int status = std::system(cmd.c_str());
+        RunResult r;
+        r.signaled = WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) > 128);
+        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.out = slurp(out);
+        r.err = slurp(err);
+        return r;
+    }
+
+    /// Renders `scene` to out/old.exr (an existing file) and expects the rejection contract.
+    void expect_rejected(const fs::path& scene, const std::string& names) {
+        const RunResult r =
+            run("render -q " + scene.string() + " -o " + (dir_ / "out" / "old.exr").string());
+        expect_clear_error(r, names);
+    }
+
+    void expect_clear_error(const RunResult& r, const std::string& names) {
+        EXPECT_FALSE(r.signaled) << "crashed: " << r.err;
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_EQ(r.err.rfind("fogmap: error: ", 0), 0u) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one message: " << r.err;
+        EXPECT_NE(r.err.find(names), std::string::npos) << "names " << names << ": " << r.err;
+        EXPECT_TRUE(slurp(dir_ / "out" / "old.exr") == "an older render") << "old output kept";
+        for (const char c : r.err)
+            EXPECT_TRUE(c == '\n' || (static_cast<unsigned char>(c) >= 0x20 && c != 0x7f))
+                << "printable message: " << r.err;
+        std::set<std::string> files;
+        for (const auto& e : fs::directory_iterator(dir_ / "out"))
+            files.insert(e.path().filename().string());
+        EXPECT_EQ(files, std::set<std::string>{"old.exr"}) << "nothing new is written";
+    }
+
+    /// A small scene whose top-level object gets `extra` (a leading comma included).
+    fs::path scene(const std::string& extra, const std::string& name = "s.json") {
+        const fs::path p = dir_ / name;
+        spit(p, R"({
+  "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
+  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
+  "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
+  "photons": {"global": 100, "caustic": 0, "volume": 100},
+  "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10], "edge_v": [10, 0, 0],
+              "material": "ground"}])" +
+                    extra + "\n}\n");
+        return p;
+    }
+
+    fs::path vdb_scene(const fs::path& vdb) {
+        return scene(R"(, "media": [{"type": "vdb", "file": ")" + vdb.string() + R"("}])");
+    }
+
+    /// The smallest shared volume, or "" (the test skips) when ../shared/volumes is absent.
+    static std::string shared_vdb() {
+        const fs::path p = fs::path(FOGMAP_SHARED_VOLUMES) / "usd_densityAndHeat.vdb";
+        return fs::exists(p) ? slurp(p) : std::string();
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(CorruptInput, TruncatedVdbNamesTheFile) {
+    const std::string bytes = shared_vdb();
+    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    // Cut inside the magic number, inside the header, inside the first grid's descriptor and
+    // in the middle of the density grid's data.
+    for (const size_t keep : {size_t(0), size_t(7), size_t(40), size_t(200), bytes.size() / 2}) {
+        SCOPED_TRACE("kept " + std::to_string(keep) + " bytes");
+        const fs::path vdb = dir_ / "cut.vdb";
+        spit(vdb, bytes.substr(0, keep));
+        expect_rejected(vdb_scene(vdb), "cut.vdb");
+        expect_clear_error(run("info " + vdb.string()), "cut.vdb");
+    }
+    // Cut in the last grid ('heat'): `info` reads every grid and must fail; a render reads
+    // only 'density' (OpenVDB seeks to it), so it may legitimately succeed.
+    const fs::path vdb = dir_ / "cut.vdb";
+    spit(vdb, bytes.substr(0, bytes.size() * 99 / 100));
+    expect_clear_error(run("info " + vdb.string()), "cut.vdb");
+}
+
+TEST_F(CorruptInput, BitFlippedVdbHeaderNamesTheFile) {
+    const std::string bytes = shared_vdb();
+    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    // The magic number and the file format version's low byte: each flip must be detected.
+    // (Higher version bytes and the library version read as a newer file: OpenVDB reads on.)
+    for (const size_t at : {size_t(0), size_t(3), size_t(8)}) {
+        SCOPED_TRACE("flipped byte " + std::to_string(at));
+        std::string flipped = bytes;
+        flipped[at] = static_cast<char>(flipped[at] ^ 0x5a);
+        const fs::path vdb = dir_ / "flip.vdb";
+        spit(vdb, flipped);
+        expect_rejected(vdb_scene(vdb), "flip.vdb");
+    }
+}
+
+// Flips in the body of the file are not all detectable (a value may change and stay a valid
+// float): the contract there is "no crash": exit 0 with a finite render, or exit 2 naming the
+// file with nothing written.
+TEST_F(CorruptInput, BitFlippedVdbBodyNeverCrashes) {
+    const std::string bytes = shared_vdb();
+    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    for (int n = 1; n <= 6; ++n) {
+        const size_t at = bytes.size() * n / 7;
+        SCOPED_TRACE("flipped byte " + std::to_string(at));
+        std::string flipped = bytes;
+        flipped[at] = static_cast<char>(flipped[at] ^ 0xff);
+        const fs::path vdb = dir_ / "flip.vdb";
+        spit(vdb, flipped);
+        const fs::path out = dir_ / "body.exr";
+        const RunResult r = run("render -q " + vdb_scene(vdb).string() + " -o " + out.string() +
+                                " --set render.spp=1");
+        EXPECT_FALSE(r.signaled) << r.err;
+        EXPECT_TRUE(r.code == 0 || r.code == 2) << r.code << ": " << r.err;
+        if (r.code == 2) {
+            EXPECT_NE(r.err.find("flip.vdb"), std::string::npos) << r.err;
+            EXPECT_FALSE(fs::exists(out));
+        }
+        fs::remove(out);
+        fs::remove(dir_ / "body.png");
+    }
+}
+
+TEST_F(CorruptInput, TruncatedJsonGivesLineAndColumn) {
+    const std::string text = slurp(scene(""));
+    for (const size_t keep : {size_t(0), size_t(1), text.size() / 3, text.size() - 3}) {
+        SCOPED_TRACE("kept " + std::to_string(keep) + " bytes");
+        const fs::path p = dir_ / "cut.json";
+        spit(p, text.substr(0, keep));
+        expect_rejected(p, "cut.json");
+        const RunResult r = run("render -q " + p.string());
+        EXPECT_NE(r.err.find("line"), std::string::npos) << r.err;
+    }
+}
+
+TEST_F(CorruptInput, HugeNumbersAreRejectedByField) {
+    const std::pair<std::string, std::string> cases[] = {
+        {R"(, "render": {"spp": 1e400})", "1e400"},  // a JSON syntax error: no field yet
+        {R"(, "render": {"spp": 99999999999999999999999})", "/render/spp"},
+        {R"(, "render": {"max_depth": -99999999999999999999})", "/render/max_depth"},
+        {R"(, "photons": {"volume": 18446744073709551615})", "/photons/volume"},
+        {R"(, "media": [{"type": "homogeneous", "sigma_s": 1e39,
+             "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]}}])",
+         "/media/0/sigma_s"},
+        {R"(, "media": [{"type": "homogeneous", "sigma_s": 1e30, "density_scale": 1e30,
+             "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]}}])",
+         "/media/0/density_scale"},
+        {R"(, "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8,
+             "height": 6, "fov_deg": 1e-400})",
+         "/camera/fov_deg"},
+    };
+    for (const auto& [extra, field] : cases) {
+        SCOPED_TRACE(extra);
+        expect_rejected(scene(extra), field);
+    }
+}
+
+TEST_F(CorruptInput, DeepNestingIsRejected) {
+    for (const int depth : {1000, 100000}) {
+        SCOPED_TRACE("depth " + std::to_string(depth));
+        const std::string nested = std::string(depth, '[') + std::string(depth, ']');
+        expect_rejected(scene(R"(, "render": {"spp": )" + nested + "}"), "/render/spp");
+        // Unbalanced: a syntax error at the end of the file.
+        const fs::path p = dir_ / "open.json";
+        spit(p, "{\"render\": " + std::string(depth, '['));
+        expect_rejected(p, "open.json");
+    }
+}
+
+TEST_F(CorruptInput, PlyClaimingATrillionVerticesIsRejected) {
+    const fs::path ply = dir_ / "huge.ply";
+    spit(ply,
+         "ply\nformat binary_little_endian 1.0\nelement vertex 1000000000000\n"
+         "property float x\nproperty float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n" +
+             std::string(36, '\0'));
+    const fs::path p = scene(
+        R"(, "shapes": [{"type": "mesh", "file": "huge.ply", "material": "ground"}])", "mesh.json");
+    expect_rejected(p, "huge.ply");
+    // The same in ASCII.
+    spit(ply,
+         "ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    expect_rejected(p, "huge.ply");
+}
+
+}  // namespace
+}  // namespace fogmap

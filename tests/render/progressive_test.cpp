@@ -1,0 +1,57 @@
+// Progressive photon mapping (Knaus and Zwicker 2011): the radius sequence follows
+// r²_{i+1} = r²_i (i+α)/(i+1) (surfaces) and r³_{i+1} = r³_i (i+α)/(i+1) (volumes), the error
+// against a path-traced reference falls over the iterations on smoke.json, and the photon memory
+// of an iteration does not grow with the iteration count.
+
+#include "render/progressive.h"
+#include "render/metrics.h"
+#include "scene/scene_desc_json.h"
+
+#include <gtest/gtest.h>
+
+namespace fogmap {
+namespace {
+
+TEST(Progressive, RadiusSequenceFollowsKnausZwicker) {
+    const double alpha = 0.7, r1 = 0.5;
+    float r2 = static_cast<float>(r1), r3 = static_cast<float>(r1);
+    double product = 1.0;  // Π_{j=1}^{i-1} (j+α)/(j+1)
+    for (int i = 1; i < 50; ++i) {
+        r2 = next_radius(r2, i, static_cast<float>(alpha), 2);
+        r3 = next_radius(r3, i, static_cast<float>(alpha), 3);
+        product *= (i + alpha) / (i + 1.0);
+        EXPECT_NEAR(r2 * r2, r1 * r1 * product, 1e-5 * r1 * r1) << "iteration " << i + 1;
+        EXPECT_NEAR(double(r3) * r3 * r3, r1 * r1 * r1 * product, 1e-5 * r1 * r1 * r1);
+    }
+}
+
+TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysFlat) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
+    const std::vector<std::string> size{"camera.width=64", "camera.height=36"};
+    std::vector<std::string> ref = size;
+    ref.push_back("render.integrator=\"path\"");
+    ref.push_back("render.spp=2048");
+    const Image reference = run_pipeline(load_scene_desc(path, ref), true).aov.beauty;
+
+    std::vector<std::string> o = size;
+    o.push_back("render.spp=2");
+    o.push_back("photons.volume=20000");
+    o.push_back("photons.global=5000");
+    const ProgressiveResult r =
+        run_progressive(load_scene_desc(path, o), {0.0, 8, 2.0f / 3.0f}, &reference, true);
+    ASSERT_EQ(r.iterations.size(), 8u);
+    // Each iteration's image is independent, so the running mean's variance falls like 1/i
+    // while the shrinking radius lowers the bias: compare iterations 1, 2, 4 and 8.
+    for (int i : {1, 3, 7})
+        EXPECT_LT(r.iterations[i].rel_mse, r.iterations[i / 2].rel_mse) << "iteration " << i + 1;
+    EXPECT_LT(r.iterations[7].rel_mse, 0.5 * r.iterations[0].rel_mse);
+    const size_t first = r.iterations[0].photon_bytes;
+    for (const ProgressiveIteration& it : r.iterations) {
+        EXPECT_GT(it.photon_bytes, 0u);
+        EXPECT_LE(it.photon_bytes, first + first / 100) << "iteration " << it.index;
+        EXPECT_LT(it.radii.volume, r.iterations[0].radii.volume * 1.0001f);
+    }
+}
+
+}  // namespace
+}  // namespace fogmap

@@ -1,0 +1,143 @@
+// Slab validation (`fogmap validate slab`): the photon pass's tracer in a constant-density VDB
+// slab against published and independent values — van de Hulst's MCML case, exact identities
+// (albedo 1: Rd + Tt = 1; albedo 0: Tt = exp(−τ)), Chandrasekhar's semi-infinite Rd and an
+// independent analog Monte Carlo (slab_reference.h) — for both free-path methods, ray marching at
+// its default step included; stiff slabs (τ = 100, 1000) included. Tolerance: 3 combined standard
+// errors, sqrt(SE_fogmap² + SE_reference²), each SE from its estimator (per-photon sample
+// variance; binomial for the analog reference; 0 for exact values). Fixed seeds. ~1e5 photons
+// here; tests/render/slab_heavy_test.cpp repeats the comparisons with 1e6+ (label heavy).
+
+#include "slab_checks.h"
+
+#include "media/ray_march.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace fogmap {
+namespace {
+
+using namespace slab_checks;
+
+constexpr uint64_t kPhotons = 100000;
+constexpr uint64_t kReferencePhotons = 400000;
+
+TEST(SlabValidation, McmlSlabMatchesVanDeHulst) {
+    for (FreePathMethod method : kMethods) check_mcml(method, kPhotons);
+}
+
+TEST(SlabValidation, ConservativeSlabLosesNothing) {
+    check_conservative(1.0, 0.5, kPhotons, kReferencePhotons);
+    check_conservative(2.0, -0.5, kPhotons, kReferencePhotons);
+}
+
+TEST(SlabValidation, BlackSlabTransmitsExpMinusTau) {
+    for (FreePathMethod method : kMethods) {
+        check_black(1.0, method, kPhotons);
+        check_black(0.1, method, kPhotons);
+    }
+}
+
+TEST(SlabValidation, IsotropicThinSlabMatchesAnalogMonteCarlo) {
+    check_against_analog(1.0, 0.99, 0.0, kPhotons, kReferencePhotons);
+}
+
+TEST(SlabValidation, ForwardScatteringSlabMatchesAnalogMonteCarlo) {
+    check_against_analog(2.0, 0.95, 0.9, kPhotons, kReferencePhotons);
+}
+
+TEST(SlabValidation, SemiInfiniteMatchesChandrasekharH) {
+    for (FreePathMethod method : kMethods) check_semi_infinite(kInf, 0.9, method, kPhotons);
+    check_semi_infinite(kInf, 0.5, FreePathMethod::Delta, kPhotons);
+}
+
+TEST(SlabValidation, StiffSlabMatchesSemiInfiniteAtDefaultMarchStep) {
+    for (double tau : {100.0, 1000.0})
+        check_semi_infinite(tau, 0.9, FreePathMethod::March, kPhotons);
+}
+
+// The cap drops photons still alive after max_bounces interactions; in a conservative slab their
+// power is exactly what Rd + Tt miss.
+TEST(SlabValidation, BounceCapIsCountedAndIsAllThatIsLost) {
+    SlabSettings s = settings(10.0, 1.0, 0.0, FreePathMethod::Delta, 20000);
+    s.max_bounces = 8;
+    const SlabResult r = run_slab(s);
+    EXPECT_GT(r.bounce_cap, 1000u);
+    EXPECT_EQ(r.absorbed, 0u);
+    EXPECT_NEAR(r.rd.mean + r.tt.mean + double(r.bounce_cap) / double(r.photons), 1.0, 1e-6);
+}
+
+TEST(SlabValidation, ResultDoesNotDependOnThreadCount) {
+    const SlabSettings s = settings(2.0, 0.9, 0.75, FreePathMethod::March, 20000);
+    SlabResult one, two;
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        one = run_slab(s);
+    }
+    {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        two = run_slab(s);
+    }
+    EXPECT_EQ(one.rd.mean, two.rd.mean);
+    EXPECT_EQ(one.tt.mean, two.tt.mean);
+    EXPECT_EQ(one.tt.standard_error, two.tt.standard_error);
+    EXPECT_EQ(one.absorbed, two.absorbed);
+}
+
+// A medium is stiff when its majorant optical depth per step exceeds the bound; a stiff medium the
+// ray never meets leaves the marched free path bit for bit as it was.
+TEST(RayMarcher, StiffMediaAreDeltaTrackedOthersMarchUnchanged) {
+    MediumParams thin;
+    thin.sigma_s = Color(0.8f);
+    thin.sigma_a = Color(0.2f);
+    MediumParams dense = thin;
+    dense.sigma_s = Color(800.0f);
+    const Box3 here{Vec3(-1.0f), Vec3(1.0f)}, away{Vec3(10.0f), Vec3(12.0f)};
+    const std::vector<Medium> alone{Medium::homogeneous(thin, here)};
+    const std::vector<Medium> both{Medium::homogeneous(thin, here),
+                                   Medium::homogeneous(dense, away)};
+    MarchSettings ms;
+    ms.step_world = 0.05f;  // thin: 0.05 per step; dense: 40 per step
+    const RayMarcher a(alone, ms), b(both, ms);
+    EXPECT_FALSE(a.any_stiff());
+    EXPECT_FALSE(b.stiff(0));
+    EXPECT_TRUE(b.stiff(1));
+    std::vector<Medium::Sampler> sa, sb;  // move-only: no initializer lists
+    sa.emplace_back(alone[0]);
+    for (const Medium& m : both) sb.emplace_back(m);
+    for (uint64_t i = 0; i < 2000; ++i) {
+        Rng ra(3, i), rb(3, i);
+        const Ray ray{Vec3(0.0f, -2.0f, 0.0f), Vec3(0.0f, 1.0f, 0.0f)};  // misses `away`
+        const RayMarcher::FreePath fa = a.sample_free_path(sa, ray, kInfinity, ra);
+        const RayMarcher::FreePath fb = b.sample_free_path(sb, ray, kInfinity, rb);
+        ASSERT_EQ(fa.collided, fb.collided);
+        ASSERT_EQ(fa.t, fb.t);
+    }
+}
+
+// Bad arguments are InputErrors: exit code 2 and a message naming the option.
+TEST(ValidateCli, BadArgumentsExitWithCode2) {
+    const std::filesystem::path binary(FOGMAP_BINARY);
+    if (!std::filesystem::exists(binary)) GTEST_SKIP() << "build the fogmap target first";
+    const std::string base = std::string(FOGMAP_BINARY) + " validate slab ";
+    const std::string quiet = " >/dev/null 2>&1";
+    for (const std::string args :
+         {"--tau -1 --albedo 0.5 --g 0", "--tau nan --albedo 0.5 --g 0",
+          "--tau 1 --albedo 1.5 --g 0", "--tau 1 --albedo -0.1 --g 0", "--tau 1 --albedo 0.5 --g 1",
+          "--tau 1 --albedo 0.5 --g -1", "--tau 1 --albedo 0.5 --g 0 --photons 0",
+          "--tau 1 --albedo 0.5 --g 0 --photons 2e9", "--tau 1 --albedo 0.5 --g 0 --method rk4",
+          "--tau 1 --albedo 0.5 --g 0 --step-voxels 0", "--tau 1 --albedo 0.5"}) {
+        const int status = std::system((base + args + quiet).c_str());
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << args;
+    }
+    const int ok =
+        std::system((base + "--tau 0.5 --albedo 0.5 --g 0 --photons 100" + quiet).c_str());
+    EXPECT_TRUE(WIFEXITED(ok) && WEXITSTATUS(ok) == 0);
+}
+
+}  // namespace
+}  // namespace fogmap

@@ -1,0 +1,307 @@
+// `fogmap bench` pieces against hand-made expectations: the cross product of sweeps, medians,
+// the Pareto frontier of a hand-made point set, CSV columns, the SVG plot's structure, and a
+// tiny end-to-end run of the fogmap binary (8x6 pixels, a few hundred photons) that writes one
+// CSV row per run and a plot, reuses its cached reference, and rejects bad input with exit 2
+// without touching an existing CSV. No timing appears in any assertion.
+
+#include "render/bench.h"
+#include "render/svg_plot.h"
+
+#include "core/image.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> split(const std::string& s, char sep) {
+    std::vector<std::string> out;
+    std::string cur;
+    std::istringstream in(s);
+    while (std::getline(in, cur, sep)) out.push_back(cur);
+    if (!s.empty() && s.back() == sep) out.push_back("");
+    return out;
+}
+
+size_t count(const std::string& s, const std::string& needle) {
+    size_t n = 0;
+    for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
+    return n;
+}
+
+TEST(SweepRuns, CrossProductInAxisOrder) {
+    const std::vector<SweepAxis> axes = {{"photons.volume", {"1000", "2000"}},
+                                         {"volume.k", {"20", "50", "100"}}};
+    const std::vector<std::vector<std::string>> expected = {
+        {"photons.volume=1000", "volume.k=20"},  {"photons.volume=1000", "volume.k=50"},
+        {"photons.volume=1000", "volume.k=100"}, {"photons.volume=2000", "volume.k=20"},
+        {"photons.volume=2000", "volume.k=50"},  {"photons.volume=2000", "volume.k=100"}};
+    EXPECT_EQ(sweep_runs(axes), expected);
+}
+
+TEST(SweepRuns, ThreeAxesGiveEveryCombinationOnce) {
+    const std::vector<SweepAxis> axes = {{"a", {"1", "2"}}, {"b", {"x"}}, {"c", {"p", "q"}}};
+    const std::vector<std::vector<std::string>> expected = {
+        {"a=1", "b=x", "c=p"}, {"a=1", "b=x", "c=q"}, {"a=2", "b=x", "c=p"}, {"a=2", "b=x", "c=q"}};
+    EXPECT_EQ(sweep_runs(axes), expected);
+}
+
+TEST(SweepRuns, NoAxesIsOneRunWithoutOverrides) {
+    const std::vector<std::vector<std::string>> expected = {{}};
+    EXPECT_EQ(sweep_runs({}), expected);
+}
+
+TEST(Median, OddAndEvenCounts) {
+    EXPECT_EQ(median({3.0, 1.0, 2.0}), 2.0);
+    EXPECT_EQ(median({4.0, 1.0, 3.0, 2.0}), 2.5);
+    EXPECT_EQ(median({7.0}), 7.0);
+    EXPECT_EQ(median({}), 0.0);
+}
+
+TEST(ParetoFrontier, HandMadePointsGiveExpectedSubset) {
+    // index:                     0    1    2    3    4    5    6    7
+    const std::vector<double> t = {1.0, 2.0, 2.0, 3.0, 4.0, 0.5, 5.0, 4.0};
+    const std::vector<double> e = {0.5, 0.6, 0.3, 0.3, 0.1, 0.9, 0.2, 0.1};
+    // 1 is beaten by 0 (faster, lower); 3 ties 2's error but is slower; 6 is beaten by 4;
+    // 7 duplicates 4 exactly (the first is kept). Frontier sorted by time: 5, 0, 2, 4.
+    const std::vector<size_t> expected = {5, 0, 2, 4};
+    EXPECT_EQ(pareto_frontier(t, e), expected);
+}
+
+TEST(ParetoFrontier, SameTimeKeepsOnlyTheLowerError) {
+    const std::vector<size_t> expected = {1};
+    EXPECT_EQ(pareto_frontier({2.0, 2.0}, {0.4, 0.2}), expected);
+}
+
+TEST(ParetoFrontier, MonotoneTradeOffKeepsEveryPoint) {
+    const std::vector<size_t> expected = {2, 0, 1};
+    EXPECT_EQ(pareto_frontier({2.0, 3.0, 1.0}, {0.2, 0.1, 0.3}), expected);
+    EXPECT_TRUE(pareto_frontier({}, {}).empty());
+}
+
+TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
+    const std::vector<std::string> keys = {"photons.volume", "volume.k"};
+    const std::string header = bench_csv_header(keys);
+    const std::vector<std::string> expected = {"method",
+                                               "photons.volume",
+                                               "volume.k",
+                                               "spp",
+                                               "repeats",
+                                               "load_s",
+                                               "photon_pass_s",
+                                               "build_global_s",
+                                               "build_caustic_s",
+                                               "build_volume_s",
+                                               "precompute_s",
+                                               "render_s",
+                                               "total_s",
+                                               "stored_global",
+                                               "stored_caustic",
+                                               "stored_volume",
+                                               "bytes",
+                                               "rmse",
+                                               "rel_mse",
+                                               "bias"};
+    ASSERT_EQ(header.back(), '\n');
+    EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
+
+    BenchRow row;
+    row.method = "photon";
+    row.swept = {"1000", "[1,2]"};  // a JSON value with commas is quoted
+    row.spp = 4;
+    row.repeats = 3;
+    row.stored = {10, 0, 1000};
+    row.bytes = 20000;
+    row.rel_mse = 0.25;
+    const std::string line = bench_csv_row(row);
+    EXPECT_EQ(line.substr(0, 27), "photon,1000,\"[1,2]\",4,3,0,0");
+    EXPECT_NE(line.find(",10,0,1000,20000,0,0.25,0\n"), std::string::npos) << line;
+}
+
+TEST(SvgPlot, FrontierIsAPolylineAndTheDocumentIsClosed) {
+    LogLogPlot plot;
+    plot.title = "a < b & c";
+    plot.series.push_back({"runs",
+                           "#000",
+                           PlotMarker::Circle,
+                           PlotLine::None,
+                           {{0.5, 0.1}, {2.0, 0.01}, {0.0, 1.0}, {1.0, -1.0}}});
+    plot.series.push_back(
+        {"frontier", "#f00", PlotMarker::None, PlotLine::Step, {{0.5, 0.1}, {2.0, 0.01}}});
+    const std::string svg = svg_log_log(plot);
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+    EXPECT_EQ(svg.substr(svg.size() - 7), "</svg>\n");
+    EXPECT_EQ(count(svg, "<polyline"), 1u);
+    EXPECT_EQ(count(svg, "</polyline>"), 1u);
+    // Step line through 2 points: start, corner, end, and the extension to the right edge.
+    const size_t points = svg.find("points=\"", svg.find("<polyline"));
+    const std::string list = svg.substr(points + 8, svg.find('"', points + 8) - points - 8);
+    EXPECT_EQ(split(list, ' ').size(), 4u) << list;
+    // Two drawable markers plus the legend's; non-positive points are left out.
+    EXPECT_EQ(count(svg, "<circle"), 3u);
+    EXPECT_NE(svg.find("a &lt; b &amp; c"), std::string::npos);
+    EXPECT_EQ(count(svg, "<g"), count(svg, "</g>"));
+    EXPECT_EQ(count(svg, "<text"), count(svg, "</text>"));
+}
+
+// ---- The fogmap binary on a tiny scene ---------------------------------------------------------
+
+struct RunResult {
+    int code = -1;
+    std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+class BenchCommand : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() /
+               ("fogmap_bench_" +
+                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+        // 8x6 pixels, a sun over a ground quad in a homogeneous fog box; a few hundred photons.
+        std::ofstream(dir_ / "tiny.json") << R"({
+  "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
+  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3},
+             {"type": "environment", "radiance": 0.1}],
+  "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
+  "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10], "edge_v": [10, 0, 0],
+              "material": "ground"}],
+  "media": [{"type": "homogeneous", "bounds": {"min": [-1, 0, -1], "max": [1, 1.5, 1]},
+             "sigma_s": 0.8, "sigma_a": 0.1, "g": 0.2}],
+  "photons": {"global": 200, "caustic": 0, "volume": 300},
+  "march": {"step_world": 0.1},
+  "render": {"spp": 2, "max_depth": 8, "threads": 1}
+})";
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    RunResult run(const std::string& args) {
+        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+        const std::string cmd = std::string(FOGMAP_BINARY) + " bench " +
+                                (dir_ / "tiny.json").string() + " " + args + " >" + out.string() +
+                                " 2>" + err.string();
+        const int status = std::system(cmd.c_str());
+        RunResult r;
+        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.out = slurp(out);
+        r.err = slurp(err);
+        return r;
+    }
+
+    std::string outputs() const {
+        return " --csv " + (dir_ / "out" / "b.csv").string() + " --plot " +
+               (dir_ / "out" / "b.svg").string();
+    }
+
+    fs::path dir_;
+};
+
+TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
+    const std::string args =
+        "--reference-spp 4 --sweep photons.volume=100,300 --sweep volume.k=5,10 --repeat 2" +
+        outputs();
+    const RunResult r = run(args + " --path-spp 1,2");
+    ASSERT_EQ(r.code, 0) << r.err;
+
+    const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
+    // Header, 2 x 2 photon runs, 2 path runs, and the empty string after the final newline.
+    ASSERT_EQ(lines.size(), 8u);
+    EXPECT_EQ(lines.back(), "");
+    const std::vector<std::string> header = split(lines[0], ',');
+    ASSERT_EQ(header.size(), 20u);
+    EXPECT_EQ(header[1], "photons.volume");
+    EXPECT_EQ(header[2], "volume.k");
+    const std::vector<std::vector<std::string>> expected = {
+        {"photon", "100", "5"},  {"photon", "100", "10"}, {"photon", "300", "5"},
+        {"photon", "300", "10"}, {"path", "", ""},        {"path", "", ""}};
+    for (size_t i = 0; i < expected.size(); ++i) {
+        const std::vector<std::string> f = split(lines[i + 1], ',');
+        ASSERT_EQ(f.size(), header.size()) << lines[i + 1];
+        EXPECT_EQ(std::vector<std::string>(f.begin(), f.begin() + 3), expected[i]);
+        EXPECT_EQ(f[4], "2");  // repeats
+        for (size_t c = 5; c < f.size(); ++c) EXPECT_FALSE(f[c].empty()) << header[c];
+        const double rel_mse = std::stod(f[18]);
+        EXPECT_TRUE(rel_mse > 0.0 && std::isfinite(rel_mse)) << lines[i + 1];
+        if (f[0] == "photon") {
+            EXPECT_GE(std::stoi(f[15]), std::stoi(f[1]));  // the volume map filled its budget
+            EXPECT_GT(std::stod(f[6]), 0.0);               // photon pass timed
+        }
+    }
+    EXPECT_EQ(split(lines[5], ',')[3], "1");  // path spp
+    EXPECT_EQ(split(lines[6], ',')[3], "2");
+
+    const std::string svg = slurp(dir_ / "out" / "b.svg");
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+    EXPECT_NE(svg.find("</svg>"), std::string::npos);
+    EXPECT_GE(count(svg, "<polyline"), 2u);  // frontier and path tracer curve
+    EXPECT_NE(svg.find("Pareto frontier"), std::string::npos);
+    EXPECT_NE(r.out.find("Pareto frontier"), std::string::npos) << r.out;
+
+    // The cached reference sits beside the CSV and a second run reuses it.
+    int cached = 0;
+    for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+        if (entry.path().extension() == ".exr") ++cached;
+    EXPECT_EQ(cached, 1);
+    const RunResult again = run(args + " --path-spp none");
+    ASSERT_EQ(again.code, 0) << again.err;
+    EXPECT_NE(again.err.find("reusing"), std::string::npos) << again.err;
+    EXPECT_EQ(split(slurp(dir_ / "out" / "b.csv"), '\n').size(), 6u);
+}
+
+TEST_F(BenchCommand, BadInputExitsTwoAndLeavesTheOldCsv) {
+    fs::create_directories(dir_ / "out");
+    std::ofstream(dir_ / "out" / "b.csv") << "old\n";
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {"--sweep volume.k", "expected KEY=V1,V2"},
+        {"--sweep volume.k=5,,10", "empty value"},
+        {"--sweep volume.kk=5", "kk"},
+        {"--sweep volume.k=-3", "-3 (from --sweep 'volume.k=-3')"},
+        {"--sweep volume.k=5 --sweep volume.k=6", "swept twice"},
+        {"--sweep volume.k=5 --path-spp 0", "--path-spp"},
+    };
+    for (const auto& [args, message] : cases) {
+        const RunResult r = run("--reference-spp 4 " + args + outputs());
+        EXPECT_EQ(r.code, 2) << args;
+        EXPECT_NE(r.err.find("fogmap: error:"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+    }
+    // A reference of the wrong size, a missing one, an output that cannot be written.
+    write_exr((dir_ / "small.exr").string(), Image(4, 4));
+    const std::vector<std::pair<std::string, std::string>> more = {
+        {"--reference " + (dir_ / "small.exr").string() + " --sweep volume.k=5" + outputs(),
+         "reference is 4x4"},
+        {"--reference " + (dir_ / "missing.exr").string() + " --sweep volume.k=5" + outputs(),
+         "missing.exr"},
+        {"--reference-spp 4 --sweep volume.k=5 --csv " + (dir_ / "tiny.json" / "b.csv").string() +
+             " --plot " + (dir_ / "out" / "b.svg").string(),
+         "--csv"},
+    };
+    for (const auto& [args, message] : more) {
+        const RunResult r = run(args);
+        EXPECT_EQ(r.code, 2) << args;
+        EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+    }
+    EXPECT_EQ(slurp(dir_ / "out" / "b.csv"), "old\n");
+    EXPECT_FALSE(fs::exists(dir_ / "out" / "b.svg"));
+}
+
+}  // namespace
+}  // namespace fogmap
