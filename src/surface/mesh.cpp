@@ -416,8 +416,9 @@ Mesh load_ply(const std::string& path, const std::string& field) {
                 if (keep) add_polygon(&mesh, polygon);
             }
             if (is_vertex) {
-                const Vec3 p(float(row[size_t(xyz[0])]), float(row[size_t(xyz[1])]),
-                             float(row[size_t(xyz[2])]));
+                // Braces: with parentheses clang parses this as a function declaration.
+                const Vec3 p{float(row[size_t(xyz[0])]), float(row[size_t(xyz[1])]),
+                             float(row[size_t(xyz[2])])};
                 if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
                     fail("vertex " + std::to_string(r) + " has a non-finite coordinate");
                 }
