@@ -1,23 +1,14 @@
 #include "render/path_tracer.h"
 
-#include "core/progress.h"
-#include "core/timer.h"
 #include "media/henyey_greenstein.h"
 #include "render/camera.h"
+#include "render/tiles.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-#include <tbb/parallel_for.h>
-
-#include <atomic>
 #include <optional>
 
 namespace fogmap {
 
 namespace {
-
-constexpr int kTile = 16;
 
 float power_heuristic(float a, float b) {
     const float a2 = a * a, b2 = b * b;
@@ -201,46 +192,24 @@ Image render_path(const Scene& scene, const RenderSettings& settings, bool quiet
     const PathTracer tracer(scene, settings.max_depth);
     const int w = camera.width(), h = camera.height();
     Image image(w, h);
-    const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
-    const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    std::atomic<uint64_t> rays{0}, nonfinite{0};
-    Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
-    const Timer timer;
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
-        for (int tile = range.begin(); tile != range.end(); ++tile) {
-            PathTracer::ThreadState ts = tracer.make_state();
+    render_tiles(
+        w, h, settings, quiet, stats, [&] { return tracer.make_state(); },
+        [&](int x, int y, PathTracer::ThreadState& ts) {
+            Color sum(0.0f);
             uint64_t dropped = 0;
-            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-            for (int y = y0; y < std::min(y0 + kTile, h); ++y) {
-                for (int x = x0; x < std::min(x0 + kTile, w); ++x) {
-                    Color sum(0.0f);
-                    const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
-                    for (int s = 0; s < settings.spp; ++s) {
-                        Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
-                        const float jx = rng.uniform(), jy = rng.uniform();
-                        const Color c = tracer.radiance(camera.generate(x + jx, y + jy), rng, ts);
-                        if (is_finite(c))
-                            sum += c;
-                        else
-                            ++dropped;
-                    }
-                    image.at(x, y) = sum / static_cast<float>(settings.spp);
-                }
+            const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+            for (int s = 0; s < settings.spp; ++s) {
+                Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
+                const float jx = rng.uniform(), jy = rng.uniform();
+                const Color c = tracer.radiance(camera.generate(x + jx, y + jy), rng, ts);
+                if (is_finite(c))
+                    sum += c;
+                else
+                    ++dropped;
             }
-            rays += ts.rays;
-            nonfinite += dropped;
-            progress.add();
-        }
-    });
-    progress.finish();
-    if (stats) {
-        stats->render_s = timer.seconds();
-        stats->samples = static_cast<uint64_t>(w) * h * settings.spp;
-        stats->rays = rays.load();
-        stats->nonfinite = nonfinite.load();
-        stats->threads = threads;
-    }
+            image.at(x, y) = sum / static_cast<float>(settings.spp);
+            return dropped;
+        });
     return image;
 }
 

@@ -1,10 +1,10 @@
 #include "render/photon_integrator.h"
 
-#include "core/progress.h"
 #include "core/timer.h"
 #include "media/henyey_greenstein.h"
 #include "photon/estimators.h"
 #include "render/camera.h"
+#include "render/tiles.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -12,13 +12,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 
 namespace fogmap {
 
 namespace {
 
-constexpr int kTile = 16;
 constexpr float kGatherNormalCos = 0.9f;  // irradiance points count only on like-facing surfaces
 
 // ∫₀^h e^{−σ s} ds per channel: the weight of a step whose σ is held constant.
@@ -357,56 +355,36 @@ AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const Render
     const Camera camera(scene.desc.camera);
     const int w = camera.width(), h = camera.height();
     AovImages aov{Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h)};
-    const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
-    std::atomic<uint64_t> rays{0}, nonfinite{0};
-    Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
-    const Timer timer;
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
-        for (int tile = range.begin(); tile != range.end(); ++tile) {
-            PhotonIntegrator::ThreadState ts = integrator.make_state();
+    render_tiles(
+        w, h, settings, quiet, stats, [&] { return integrator.make_state(); },
+        [&](int x, int y, PhotonIntegrator::ThreadState& ts) {
+            PhotonIntegrator::Sample sum;
             uint64_t dropped = 0;
-            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-            for (int y = y0; y < std::min(y0 + kTile, h); ++y) {
-                for (int x = x0; x < std::min(x0 + kTile, w); ++x) {
-                    PhotonIntegrator::Sample sum;
-                    const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
-                    for (int s = 0; s < settings.spp; ++s) {
-                        Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
-                        const float jx = rng.uniform(), jy = rng.uniform();
-                        const PhotonIntegrator::Sample c =
-                            integrator.radiance(camera.generate(x + jx, y + jy), rng, ts);
-                        if (!is_finite(c.beauty())) {
-                            ++dropped;
-                            continue;
-                        }
-                        sum.direct += c.direct;
-                        sum.volume_single += c.volume_single;
-                        sum.volume_multiple += c.volume_multiple;
-                        sum.caustic += c.caustic;
-                        sum.indirect += c.indirect;
-                    }
-                    const float inv = 1.0f / static_cast<float>(settings.spp);
-                    aov.direct.at(x, y) = sum.direct * inv;
-                    aov.volume_single.at(x, y) = sum.volume_single * inv;
-                    aov.volume_multiple.at(x, y) = sum.volume_multiple * inv;
-                    aov.caustic.at(x, y) = sum.caustic * inv;
-                    aov.indirect.at(x, y) = sum.indirect * inv;
-                    aov.beauty.at(x, y) = sum.beauty() * inv;
+            const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+            for (int s = 0; s < settings.spp; ++s) {
+                Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
+                const float jx = rng.uniform(), jy = rng.uniform();
+                const PhotonIntegrator::Sample c =
+                    integrator.radiance(camera.generate(x + jx, y + jy), rng, ts);
+                if (!is_finite(c.beauty())) {
+                    ++dropped;
+                    continue;
                 }
+                sum.direct += c.direct;
+                sum.volume_single += c.volume_single;
+                sum.volume_multiple += c.volume_multiple;
+                sum.caustic += c.caustic;
+                sum.indirect += c.indirect;
             }
-            rays += ts.rays;
-            nonfinite += dropped;
-            progress.add();
-        }
-    });
-    progress.finish();
-    if (stats) {
-        stats->render_s = timer.seconds();
-        stats->samples = static_cast<uint64_t>(w) * h * settings.spp;
-        stats->rays = rays.load();
-        stats->nonfinite = nonfinite.load();
-        stats->threads = threads;
-    }
+            const float inv = 1.0f / static_cast<float>(settings.spp);
+            aov.direct.at(x, y) = sum.direct * inv;
+            aov.volume_single.at(x, y) = sum.volume_single * inv;
+            aov.volume_multiple.at(x, y) = sum.volume_multiple * inv;
+            aov.caustic.at(x, y) = sum.caustic * inv;
+            aov.indirect.at(x, y) = sum.indirect * inv;
+            aov.beauty.at(x, y) = sum.beauty() * inv;
+            return dropped;
+        });
     return aov;
 }
 

@@ -1,0 +1,57 @@
+#pragma once
+// The render pass's parallel loop, shared by every integrator: 16x16 tiles over TBB with
+// settings.threads threads (0 = all cores), one thread state per tile, a progress bar, and the
+// stats (wall time, samples, rays, dropped samples). Pixels depend only on their own indices, so
+// the image is the same for any thread count.
+
+#include "core/progress.h"
+#include "core/timer.h"
+#include "render/path_tracer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+
+namespace fogmap {
+
+/// Calls shade_pixel(x, y, state) for every pixel of a width x height image, with
+/// state = make_state() made once per tile; shade_pixel returns how many of its samples were
+/// dropped as non-finite, and state.rays counts the rays it traced.
+template <class MakeState, class ShadePixel>
+void render_tiles(int width, int height, const RenderSettings& settings, bool quiet,
+                  RenderStats* stats, MakeState&& make_state, ShadePixel&& shade_pixel) {
+    constexpr int kTile = 16;
+    const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+    std::atomic<uint64_t> rays{0}, nonfinite{0};
+    Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
+    const Timer timer;
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
+        for (int tile = range.begin(); tile != range.end(); ++tile) {
+            auto state = make_state();
+            uint64_t dropped = 0;
+            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+            for (int y = y0; y < std::min(y0 + kTile, height); ++y)
+                for (int x = x0; x < std::min(x0 + kTile, width); ++x)
+                    dropped += shade_pixel(x, y, state);
+            rays += state.rays;
+            nonfinite += dropped;
+            progress.add();
+        }
+    });
+    progress.finish();
+    if (stats) {
+        stats->render_s = timer.seconds();
+        stats->samples = static_cast<uint64_t>(width) * height * settings.spp;
+        stats->rays = rays.load();
+        stats->nonfinite = nonfinite.load();
+        stats->threads = threads;
+    }
+}
+
+}  // namespace fogmap
