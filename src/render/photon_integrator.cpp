@@ -348,8 +348,7 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
 AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
                         bool quiet, RenderStats* stats, double* precompute_s,
                         const GatherOverride* gather) {
-    const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count(settings));
     const PhotonIntegrator integrator(scene, maps, gather);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     const Camera camera(scene.desc.camera);

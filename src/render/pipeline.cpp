@@ -3,32 +3,35 @@
 #include "core/timer.h"
 #include "photon/photon_pass.h"
 #include "render/path_tracer.h"
+#include "render/tiles.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
 #include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include <cstdio>
 
 namespace fogmap {
 
+LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report) {
+    const Timer timer;
+    LoadedScene loaded{make_plan(desc), nullptr};
+    report->plan_text = plan_text(loaded.plan);
+    report->plan = plan_json(loaded.plan);
+    if (!quiet) std::fprintf(stderr, "%s", report->plan_text.c_str());
+    loaded.scene = load_scene(desc);
+    report->phases_s.emplace_back("load", timer.seconds());
+    return loaded;
+}
+
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet) {
     PipelineResult out;
     Report& report = out.report;
-    const Timer timer;
-    const Plan plan = make_plan(desc);
-    report.plan_text = plan_text(plan);
-    report.plan = plan_json(plan);
-    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
-    const std::unique_ptr<Scene> scene = load_scene(desc);
-    report.phases_s.emplace_back("load", timer.seconds());
-
+    const auto [plan, scene] = plan_and_load(desc, quiet, &report);
     // One thread limit for every parallel phase of this run.
-    const int threads =
-        desc.render.threads > 0 ? desc.render.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                              thread_count(desc.render));
     RenderStats stats;
     if (desc.render.integrator == Integrator::Photon) {
         PhotonPassResult pass = trace_photons(*scene, plan, quiet);

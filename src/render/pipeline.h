@@ -5,7 +5,11 @@
 
 #include "render/photon_integrator.h"
 #include "render/report.h"
+#include "scene/plan.h"
+#include "scene/scene.h"
 #include "scene/scene_desc.h"
+
+#include <memory>
 
 namespace fogmap {
 
@@ -14,6 +18,16 @@ struct PipelineResult {
     bool layered = false;  ///< aov holds AOV layers
     Report report;         ///< plan, settings, phases, maps, stats, image mean
 };
+
+/// A planned and loaded scene: the first two stages of every run.
+struct LoadedScene {
+    Plan plan;
+    std::unique_ptr<Scene> scene;
+};
+
+/// Makes the plan (printed on stderr unless quiet) and loads the scene, filling the report's
+/// plan and its "load" phase. Throws InputError for unreadable scene data.
+LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report);
 
 /// Runs `desc` with desc.render.threads threads. Progress and warnings on stderr unless quiet.
 /// Throws InputError for unreadable scene data (meshes, VDB files).

@@ -4,12 +4,12 @@
 #include "core/timer.h"
 #include "photon/photon_pass.h"
 #include "render/metrics.h"
+#include "render/tiles.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
 #include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include <algorithm>
 #include <cmath>
@@ -68,16 +68,10 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettin
     ProgressiveResult result;
     Report& report = result.report;
     const Timer timer;
-    const Plan plan = make_plan(desc);
-    report.plan_text = plan_text(plan);
-    report.plan = plan_json(plan);
-    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
     // The scene is loaded once; each iteration changes only its seed (photons and camera).
-    const std::unique_ptr<Scene> scene = load_scene(desc);
-    report.phases_s.emplace_back("load", timer.seconds());
-    const int threads =
-        desc.render.threads > 0 ? desc.render.threads : tbb::info::default_concurrency();
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const auto [plan, scene] = plan_and_load(desc, quiet, &report);
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                              thread_count(desc.render));
 
     GatherOverride gather{gather_radii(*scene), true};
     AovImages sum;

@@ -18,6 +18,11 @@
 
 namespace fogmap {
 
+/// Worker threads of a run: settings.threads, or every core when 0.
+inline int thread_count(const RenderSettings& settings) {
+    return settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
+}
+
 /// Calls shade_pixel(x, y, state) for every pixel of a width x height image, with
 /// state = make_state() made once per tile; shade_pixel returns how many of its samples were
 /// dropped as non-finite, and state.rays counts the rays it traced.
@@ -25,7 +30,7 @@ template <class MakeState, class ShadePixel>
 void render_tiles(int width, int height, const RenderSettings& settings, bool quiet,
                   RenderStats* stats, MakeState&& make_state, ShadePixel&& shade_pixel) {
     constexpr int kTile = 16;
-    const int threads = settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
+    const int threads = thread_count(settings);
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
     std::atomic<uint64_t> rays{0}, nonfinite{0};
