@@ -2,7 +2,8 @@
 // 1/16): the same sample points through
 //   dense        a dense float array copy of the grid (this file's own; issue 4's baseline,
 //                target: fogmap at most 1.5x its cost),
-//   fogmap       DensityGrid::Sampler (OpenVDB ValueAccessor + BoxSampler, behind a pimpl),
+//   fogmap       DensityGrid::Sampler (inline; per 8^3 cell one value or a 9^3 brick, built at
+//                load: one table lookup plus 8 loads per sample),
 //   gridsampler  openvdb::tools::GridSampler<FloatGrid::ConstAccessor, BoxSampler>::isSample,
 //   gridsampler_tree  GridSampler<FloatTree, BoxSampler> (no accessor cache),
 //   nanovdb      nanovdb::openToNanoVDB + ReadAccessor + TrilinearSampler (what it would buy),
@@ -11,6 +12,8 @@
 // order ("coherent") or shuffled ("random"); 2^18 per volume, fixed seeds. Each benchmark
 // stores its ns/sample (thread CPU time); the others then set `cost_vs_dense` against the dense
 // run of the same case (registered first). `max_abs_diff` checks every sampler against dense.
+// Memory (MB): dense_MB on the dense row; fogmap_MB (DensityGrid::sampler_bytes, all fogmap
+// keeps) and openvdb_MB (the FloatGrid's tree) on the fogmap row.
 
 #include "bench_volumes.h"
 #include "core/rng.h"
@@ -316,6 +319,11 @@ void bm_sample(benchmark::State& state, std::string vdb, SampleOrder order, Impl
     }
     if (const auto it = row.find(Impl::Dense); it != row.end())
         state.counters["cost_vs_dense"] = ns / it->second;
+    if (impl == Impl::Fogmap) {
+        state.counters["fogmap_MB"] =
+            static_cast<double>(f.fogmap_grid->sampler_bytes()) / (1 << 20);
+        state.counters["openvdb_MB"] = static_cast<double>(f.vdb_grid->memUsage()) / (1 << 20);
+    }
     if (impl == Impl::NanoVdb || impl == Impl::LeafCache) {
         if (const auto it = row.find(Impl::Fogmap); it != row.end())
             state.counters["speedup_vs_fogmap"] = it->second / ns;

@@ -80,33 +80,12 @@ int run_render(const RenderArgs& args) {
                              std::to_string(reference.height) + ", the camera renders " +
                              std::to_string(desc.camera.width) + "x" +
                              std::to_string(desc.camera.height));
-    PipelineResult run;
-    if (args.progressive) {
-        if (desc.render.integrator != Integrator::Photon)
-            throw InputError(args.scene, "/render/integrator",
-                             "--progressive needs the photon integrator; found \"path\"");
-        if (!(args.alpha > 0.0f && args.alpha < 1.0f))
-            throw InputError("", "--alpha", "expected a number in (0, 1), found " +
-                                                std::to_string(args.alpha));
-        if (args.time_budget_s <= 0.0 && args.iterations <= 0)
-            throw InputError("", "--time-budget",
-                             "--progressive needs --time-budget SECONDS or --iterations N");
-        const ProgressiveResult pr =
-            run_progressive(desc, {args.time_budget_s, args.iterations, args.alpha},
-                            args.reference.empty() ? nullptr : &reference, args.quiet);
-        run.aov = pr.aov;
-        run.layered = true;
-        run.report = pr.report;
-        for (const ProgressiveIteration& it : pr.iterations)
-            run.report.iterations.push_back(
-                {{"index", it.index},
-                 {"elapsed_s", it.elapsed_s},
-                 {"radii", {it.radii.global, it.radii.caustic, it.radii.volume}},
-                 {"rel_mse", it.rel_mse},
-                 {"photon_bytes", it.photon_bytes}});
-    } else {
-        run = run_pipeline(desc, args.quiet);
-    }
+    if (args.progressive && !desc.progressive.enabled())
+        throw InputError("", "--progressive",
+                         "needs --time-budget SECONDS or --iterations N (or progressive.iterations "
+                         "or progressive.time_budget in the scene)");
+    PipelineResult run =
+        run_pipeline(desc, args.quiet, args.reference.empty() ? nullptr : &reference);
     Report& report = run.report;
     const Image& image = run.aov.beauty;
 

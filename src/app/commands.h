@@ -19,10 +19,7 @@ struct RenderArgs {
     std::string output;                  ///< .exr path; "" = out/<scene stem>.exr
     std::string png;                     ///< .png path; "" = beside the EXR
     std::string reference;               ///< .exr to compare with; "" = none
-    bool progressive = false;            ///< progressive photon mapping (Knaus and Zwicker)
-    double time_budget_s = 0.0;          ///< progressive: stop after this many seconds
-    int iterations = 0;                  ///< progressive: stop after this many iterations
-    float alpha = 2.0f / 3.0f;           ///< progressive: radius reduction
+    bool progressive = false;            ///< --progressive: the scene's progressive.* must enable it
     std::vector<std::string> overrides;  ///< "key.path=value"
     float exposure = 0.0f;               ///< PNG preview exposure, stops
     bool quiet = false;

@@ -1,8 +1,9 @@
-// fogmap command line: render, info, volume, validate, bench. Parses arguments with CLI11 and maps failures to
-// exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else.
+// fogmap command line: render, info, volume, validate, bench. Parses arguments with CLI11 and maps
+// failures to exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else.
 
 #include "app/commands.h"
 #include "core/error.h"
+#include "media/vdb_probe.h"
 
 #include <CLI/CLI.hpp>
 
@@ -13,10 +14,12 @@ int main(int argc, char** argv) {
     using namespace fogmap;
     CLI::App app{"fogmap: volumetric photon mapping for OpenVDB smoke, fog and clouds"};
     app.require_subcommand(1);
+    enable_vdb_probe("/proc/self/exe");  // OpenVDB reads each file in a child first: vdb_probe.h
 
     RenderArgs render;
-    int spp = 0, threads = 0, max_depth = 0;
+    int spp = 0, threads = 0, max_depth = 0, iterations = 0;
     long long seed = 0;
+    double time_budget = 0.0, alpha = 0.0;
     CLI::App* r = app.add_subcommand("render", "render a scene file to EXR + PNG");
     r->add_option("scene", render.scene, "scene JSON file")->required();
     r->add_option("-o,--output", render.output, "output .exr (default out/<scene>.exr)");
@@ -29,10 +32,13 @@ int main(int argc, char** argv) {
     r->add_option("--reference", render.reference, "reference .exr: report RMSE, relMSE, bias");
     r->add_option("--exposure", render.exposure, "PNG exposure in stops");
     r->add_flag("--progressive", render.progressive,
-                "progressive photon mapping (Knaus and Zwicker 2011)");
-    r->add_option("--time-budget", render.time_budget_s, "progressive: seconds to run");
-    r->add_option("--iterations", render.iterations, "progressive: iterations to run");
-    r->add_option("--alpha", render.alpha, "progressive: radius reduction in (0, 1)");
+                "progressive photon mapping (Knaus and Zwicker 2011); needs a budget below");
+    r->add_option("--time-budget", time_budget,
+                  "progressive: seconds to run (= --set progressive.time_budget=S)");
+    r->add_option("--iterations", iterations,
+                  "progressive: iterations to run (= --set progressive.iterations=N)");
+    r->add_option("--alpha", alpha,
+                  "progressive: radius reduction in (0, 1) (= --set progressive.alpha=A)");
     r->add_flag("-q,--quiet", render.quiet, "no progress bar");
     r->add_flag("--json", render.json, "print the report as JSON on stdout");
 
@@ -49,6 +55,11 @@ int main(int argc, char** argv) {
     vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
     vol->add_option("--seed", volume.seed, "noise seed");
+
+    std::string probe_path;
+    CLI::App* probe = app.add_subcommand("__probe-vdb", "the child of vdb_probe.h");
+    probe->group("");  // hidden from --help
+    probe->add_option("file", probe_path)->required();
 
     const Subcommand extra[] = {add_validate_command(app), add_bench_command(app)};
 
@@ -67,8 +78,17 @@ int main(int argc, char** argv) {
                 render.overrides.push_back("render.seed=" + std::to_string(seed));
             if (r->count("--max-depth"))
                 render.overrides.push_back("render.max_depth=" + std::to_string(max_depth));
+            if (r->count("--time-budget"))
+                render.overrides.push_back("progressive.time_budget=" +
+                                           r->get_option("--time-budget")->as<std::string>());
+            if (r->count("--iterations"))
+                render.overrides.push_back("progressive.iterations=" + std::to_string(iterations));
+            if (r->count("--alpha"))
+                render.overrides.push_back("progressive.alpha=" +
+                                           r->get_option("--alpha")->as<std::string>());
             return run_render(render);
         }
+        if (*probe) return run_vdb_probe_child(probe_path);
         if (*info) return run_info(info_path, info_json);
         if (*vol) return run_volume(volume);
         for (const Subcommand& sub : extra)

@@ -1,11 +1,11 @@
 #include "media/density_grid.h"
 
 #include "core/error.h"
+#include "media/vdb_probe.h"
 
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/Count.h>
-#include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
 #include <cmath>
@@ -141,6 +141,49 @@ MajorantGrid build_majorants(FloatTree& tree, const Box3& index_bounds) {
     return maj;
 }
 
+/// DensityGrid's sampling layout (detail::Bricks): each majorant cell's 9^3 footprint read from
+/// the tree (leaf values, active or not, else the tile or background value: what BoxSampler's
+/// getValue sees), kept as one value when uniform, else as a brick. A leaf-sized neighbour is a
+/// leaf or a single value, so 8 probes per cell find every source.
+detail::Bricks build_bricks(const FloatTree& tree, const MajorantGrid& maj) {
+    constexpr int kEdge = detail::kBrickEdge, kCell = DensityGrid::kMajorantCell;
+    detail::Bricks out;
+    out.cells.resize(maj.max_density.size());
+    openvdb::tree::ValueAccessor<const FloatTree> acc(tree);
+    std::array<float, detail::kBrickValues> brick;
+    size_t n = 0;
+    for (int k = 0; k < maj.dims[2]; ++k)
+        for (int j = 0; j < maj.dims[1]; ++j)
+            for (int i = 0; i < maj.dims[0]; ++i, ++n) {
+                // Values are >= 0 after sanitizing: a zero majorant means 9^3 zeros.
+                if (maj.max_density[n] == 0.0f) continue;
+                const Coord o(maj.origin[0] + kCell * i, maj.origin[1] + kCell * j,
+                              maj.origin[2] + kCell * k);
+                for (int d = 0; d < 8; ++d) {  // the cell itself, then its +1 neighbours
+                    const int dx = d & 1, dy = (d >> 1) & 1, dz = d >> 2;
+                    const Coord node = o.offsetBy(kCell * dx, kCell * dy, kCell * dz);
+                    const Leaf* leaf = acc.probeConstLeaf(node);
+                    const float tile = leaf ? 0.0f : acc.getValue(node);
+                    // A neighbour supplies only its local coordinate 0 along the axes it is +1 on.
+                    for (int x = 0; x < (dx ? 1 : kCell); ++x)
+                        for (int y = 0; y < (dy ? 1 : kCell); ++y)
+                            for (int z = 0; z < (dz ? 1 : kCell); ++z) {
+                                const int b = ((kCell * dx + x) * kEdge + kCell * dy + y) * kEdge +
+                                              kCell * dz + z;
+                                brick[b] = leaf ? leaf->getValue((x << 6) | (y << 3) | z) : tile;
+                            }
+                }
+                detail::BrickCell& cell = out.cells[n];
+                cell.value = brick[0];
+                if (std::all_of(brick.begin(), brick.end(), [&](float v) { return v == brick[0]; }))
+                    continue;
+                cell.brick = static_cast<int32_t>(out.values.size() / detail::kBrickValues);
+                out.values.insert(out.values.end(), brick.begin(), brick.end());
+            }
+    out.values.shrink_to_fit();
+    return out;
+}
+
 std::string join(const std::vector<std::string>& names) {
     std::string s;
     for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
@@ -188,16 +231,6 @@ void check_header_complete(const std::string& path, const std::string& field) {
 
 }  // namespace
 
-struct DensityGrid::Impl {
-    FloatGrid::Ptr grid;
-};
-
-struct DensityGrid::Sampler::Impl {
-    explicit Impl(const FloatGrid& grid) : acc(grid.getConstAccessor()) {}
-    FloatGrid::ConstAccessor acc;
-};
-
-DensityGrid::DensityGrid() : impl_(std::make_unique<Impl>()) {}
 DensityGrid::~DensityGrid() = default;
 
 std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
@@ -206,6 +239,7 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     init_openvdb();
     check_file_exists(path, field);
     check_header_complete(path, field);
+    probe_vdb(path, field);  // OpenVDB 10.0 can crash on a corrupt file: read it in a child first
     FloatGrid::Ptr grid;
     try {
         openvdb::io::File file(path);
@@ -283,24 +317,29 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     }
     out->majorants_ = build_majorants(tree, out->index_bounds_);
     out->index_to_world_ = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
-    out->impl_->grid = grid;
+    // Last, on the sanitized tree; the tree itself is not kept (the sampler reads only bricks).
+    out->bricks_ = build_bricks(tree, out->majorants_);
     return out;
 }
 
 DensityGrid::Sampler::Sampler(const DensityGrid& grid)
-    : impl_(std::make_unique<Impl>(*grid.impl_->grid)) {}
-DensityGrid::Sampler::~Sampler() = default;
-DensityGrid::Sampler::Sampler(Sampler&&) noexcept = default;
-
-float DensityGrid::Sampler::density(const Vec3& p_index) {
-    return openvdb::tools::BoxSampler::sample(impl_->acc,
-                                              openvdb::Vec3R(p_index.x, p_index.y, p_index.z));
+    : cells_(grid.bricks_.cells.data()),
+      values_(grid.bricks_.values.data()),
+      origin_(grid.majorants_.origin),
+      dim_x_(grid.majorants_.dims[0]),
+      dim_y_(grid.majorants_.dims[1]) {
+    const MajorantGrid& m = grid.majorants_;
+    for (int a = 0; a < 3; ++a) {
+        lo_[a] = static_cast<float>(m.origin[a]);
+        hi_[a] = static_cast<float>(m.origin[a] + m.cell * m.dims[a]);
+    }
 }
 
 std::vector<GridInfo> inspect_vdb(const std::string& path) {
     init_openvdb();
     check_file_exists(path, "");
     check_header_complete(path, "");
+    probe_vdb(path, "");
     std::vector<GridInfo> infos;
     try {
         openvdb::io::File file(path);

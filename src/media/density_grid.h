@@ -6,13 +6,18 @@
 // are set to 0 and denormals flushed to 0 at load; the counts are kept in SanitizeStats.
 // A coarse majorant grid (cells of kMajorantCell^3 voxels) bounds every trilinear sample inside
 // each cell, for delta/ratio tracking and empty-space skipping.
-// Thread-safety: a DensityGrid is immutable after load and shared const; each thread makes its
-// own Sampler (it holds an OpenVDB ValueAccessor cache) — not thread-safe, copy per thread.
-// OpenVDB headers stay in density_grid.cpp (pimpl).
+// For sampling, load() copies each majorant cell's 9^3 footprint out of the tree (issue 4: a
+// sample costs about a dense array's): a cell holding one value (empty space, tile interiors)
+// keeps that value, any other owns a brick of the 9^3 values; the OpenVDB tree is then freed.
+// Thread-safety: a DensityGrid is immutable after load and shared const. A Sampler holds only
+// views of it (no cache), so density() is thread-safe; making one per thread/task stays the rule.
+// OpenVDB headers stay in density_grid.cpp.
 
 #include "core/math.h"
 
 #include <array>
+#include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -55,6 +60,24 @@ struct MajorantGrid {
     }
 };
 
+namespace detail {
+
+/// Sampling layout of a DensityGrid, one cell per majorant cell (same order as MajorantGrid).
+/// Cell c's brick holds voxels c*8 .. c*8+8 per axis (its 8^3 voxels and the low faces of its
+/// +1 neighbours: every 2^3 stencil of a point in the cell), x slowest, z fastest.
+inline constexpr int kBrickEdge = 9;
+inline constexpr int kBrickValues = kBrickEdge * kBrickEdge * kBrickEdge;
+struct BrickCell {
+    int32_t brick = -1;  ///< index into Bricks::values / kBrickValues; -1: all 9^3 equal `value`
+    float value = 0.0f;
+};
+struct Bricks {
+    std::vector<BrickCell> cells;
+    std::vector<float> values;
+};
+
+}  // namespace detail
+
 class DensityGrid {
 public:
     static constexpr int kMajorantCell = 8;
@@ -80,25 +103,37 @@ public:
     uint64_t active_voxels() const { return active_voxels_; }
     const std::string& name() const { return name_; }
 
-    /// Per-thread trilinear sampler. Not thread-safe: make one per thread/task.
+    /// Bytes of the sampling layout (cells and bricks): what the grid keeps after load.
+    size_t sampler_bytes() const {
+        return bricks_.cells.size() * sizeof(detail::BrickCell) +
+               bricks_.values.size() * sizeof(float);
+    }
+
+    /// Trilinear sampler: a view of the grid's cells and bricks. Cheap to make; one per
+    /// thread/task (density() only reads the shared grid, so it would also be safe to share).
     class Sampler {
     public:
         explicit Sampler(const DensityGrid& grid);
-        ~Sampler();
-        Sampler(Sampler&&) noexcept;
+        Sampler(Sampler&&) noexcept = default;
         Sampler(const Sampler&) = delete;
-        /// Trilinear density at a continuous index-space point (voxel centres at integers).
-        float density(const Vec3& p_index);
+        /// Trilinear density at a continuous index-space point (voxel centres at integers), 0
+        /// outside the majorant grid (so outside index_bounds()). Equals openvdb::tools::
+        /// BoxSampler on the sanitized grid (bit for bit, but for a 1-ulp rounding of the weight
+        /// in OpenVDB's double arithmetic when a coordinate lies in (-0.5, 0)). Inline: it is
+        /// the march's inner loop.
+        float density(const Vec3& p_index) const;
 
     private:
-        struct Impl;
-        std::unique_ptr<Impl> impl_;
+        const detail::BrickCell* cells_ = nullptr;
+        const float* values_ = nullptr;
+        std::array<int, 3> origin_{0, 0, 0};  ///< index coordinate of cell (0,0,0)
+        int dim_x_ = 0, dim_y_ = 0;           ///< cells per axis (x, y)
+        Vec3 lo_{0.0f}, hi_{0.0f};            ///< floor(p) in [lo_, hi_) lies in a cell
     };
 
 private:
-    DensityGrid();
-    struct Impl;
-    std::unique_ptr<Impl> impl_;
+    DensityGrid() = default;
+    detail::Bricks bricks_;
     DMat4 index_to_world_{1.0};
     Box3 index_bounds_;
     float max_density_ = 0.0f;
@@ -106,7 +141,31 @@ private:
     SanitizeStats sanitize_;
     uint64_t active_voxels_ = 0;
     std::string name_;
-    friend class Sampler;
 };
+
+inline float DensityGrid::Sampler::density(const Vec3& p_index) const {
+    static_assert(kMajorantCell == 8 && detail::kBrickEdge == kMajorantCell + 1,
+                  "8^3 cells (>> 3, & 7 below) with a 1-voxel apron");
+    const Vec3 f = glm::floor(p_index);
+    // Float bounds first: also false for NaN, and keeps the int conversions in range.
+    if (!(f.x >= lo_.x && f.y >= lo_.y && f.z >= lo_.z && f.x < hi_.x && f.y < hi_.y &&
+          f.z < hi_.z))
+        return 0.0f;
+    const int i = static_cast<int>(f.x) - origin_[0], j = static_cast<int>(f.y) - origin_[1];
+    const int k = static_cast<int>(f.z) - origin_[2];
+    const detail::BrickCell cell =
+        cells_[(static_cast<size_t>(k >> 3) * dim_y_ + (j >> 3)) * dim_x_ + (i >> 3)];
+    if (cell.brick < 0) return cell.value;
+    constexpr int kY = detail::kBrickEdge, kX = kY * kY;
+    const float* c = values_ + static_cast<size_t>(cell.brick) * detail::kBrickValues +
+                     ((i & 7) * kX + (j & 7) * kY + (k & 7));
+    const Vec3 w = p_index - f;
+    // BoxSampler's order (z, then y, then x) and form a + (b - a) t. OpenVDB rounds the double
+    // product (b - a) t to float; a float product of float weights is that same single rounding
+    // (unless the compiler fuses it into an FMA: fogmap builds without -march).
+    const auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
+    return lerp(lerp(lerp(c[0], c[1], w.z), lerp(c[kY], c[kY + 1], w.z), w.y),
+                lerp(lerp(c[kX], c[kX + 1], w.z), lerp(c[kX + kY], c[kX + kY + 1], w.z), w.y), w.x);
+}
 
 }  // namespace fogmap

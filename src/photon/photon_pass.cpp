@@ -192,6 +192,13 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
         result.warnings.push_back("no light emits power: no photons traced");
         return result;
     }
+    // Sun and sky photons concentrate on the media when a volume map is wanted and
+    // photons.media_fraction asks for it (light.h PhotonFocus).
+    PhotonFocus focus;
+    if (maps[kVolume])
+        for (const Medium& m : scene.media) focus.bounds.extend(m.world_bounds());
+    focus.fraction = scene.desc.photons.media_fraction;
+    const PhotonFocus* focused = focus.bounds.empty() || focus.fraction <= 0.0f ? nullptr : &focus;
     // Light ∝ power, then a photon from it, traced.
     auto emit = [&](uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
                     std::vector<TaggedPhoton>& out) {
@@ -201,8 +208,9 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
                 emitter.light_cdf.begin(),
             emitter.light_cdf.size() - 1);
         Ray ray;
-        if (!sample_photon(scene.lights[li], scene.bounds, rng, &ray)) return;
-        tracer.trace(ray, emitter.light_relative_power[li], rng, samplers, index, &out);
+        float weight;
+        if (!sample_photon(scene.lights[li], scene.bounds, focused, rng, &ray, &weight)) return;
+        tracer.trace(ray, emitter.light_relative_power[li] * weight, rng, samplers, index, &out);
     };
 
     const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;

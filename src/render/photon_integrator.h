@@ -4,9 +4,11 @@
 // by ratio tracking), caustics from the caustic map and indirect diffuse light from the global
 // map, shown directly or through final gathering with irradiance precomputed at photon positions
 // (Christensen 1999). Along the way camera rays march through media (same step settings as the
-// photon pass): single scattering from shadow rays at every step, multiple scattering from the
-// volume map at volume.lookups_per_ray steps drawn by stratified importance sampling of the
-// march's weights (every step when 0).
+// photon pass): single scattering from volume.light_samples shadow rays per light at points drawn
+// ∝ the march's weights, and for point and spot lights as many again drawn equi-angularly
+// (Kulla & Fajardo 2012), combined by the balance heuristic (every step when 0); multiple
+// scattering from the volume map at volume.lookups_per_ray steps drawn by stratified importance
+// sampling of the march's weights (every step when 0).
 // Each term goes to its own AOV. Deterministic per seed: pixel (x, y), sample s draws from
 // Rng(seed, y*width+x, s).
 
@@ -45,22 +47,19 @@ public:
                      const GatherOverride* gather = nullptr);
     ~PhotonIntegrator();
 
-    /// A march step where light can scatter towards the camera.
-    struct LitStep {
-        Vec3 x;
-        Color weight;  ///< throughput × transmittance × ∫ over the step of e^{−σ_t s} ds
-        Color sigma_s;
-    };
-    /// Optical depth along the current camera ray: τ at t0 of each march step (beam estimate).
-    struct DepthStep {
+    /// One march step of the current camera segment (σ held constant over [t0, t1]).
+    struct MarchedStep {
         float t0, t1;
-        Color tau0, sigma_t;
+        Vec3 x;      ///< the march's jittered point in the step
+        Color tau0;  ///< optical depth from the segment's start to t0
+        Color sigma_t, sigma_s;
+        Color weight;  ///< throughput × e^{−τ0} × ∫ over the step of e^{−σ_t s} ds
     };
     struct ThreadState {
         std::vector<Medium::Sampler> media;
         NeighborList neighbors;
-        std::vector<LitStep> steps;
-        std::vector<DepthStep> depth;
+        std::vector<MarchedStep> steps;
+        std::vector<double> cdf;  ///< scratch: cumulative step weights
         uint64_t rays = 0;
     };
     ThreadState make_state() const;
@@ -83,8 +82,10 @@ private:
     struct Irradiance;
     Color direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
                          ThreadState& ts) const;
-    Color single_scatter(const Vec3& x, const Vec3& dir, float g, Rng& rng, ThreadState& ts) const;
-    void light_steps(const Vec3& dir, Rng& rng, ThreadState& ts, Sample* out) const;
+    Color scatter_light(const Light& light, const Vec3& x, const Vec3& dir, float g, Rng& rng,
+                        ThreadState& ts) const;
+    Color single_scattering(const Ray& ray, const Color& beta, Rng& rng, ThreadState& ts) const;
+    Color multiple_scattering(const Vec3& dir, Rng& rng, ThreadState& ts) const;
     Color beam_estimate(const Ray& ray, ThreadState& ts) const;
     Color shadow_transmittance(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;

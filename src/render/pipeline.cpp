@@ -3,6 +3,7 @@
 #include "core/timer.h"
 #include "photon/photon_pass.h"
 #include "render/path_tracer.h"
+#include "render/progressive.h"
 #include "render/tiles.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
@@ -25,8 +26,12 @@ LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report) {
     return loaded;
 }
 
-PipelineResult run_pipeline(const SceneDesc& desc, bool quiet) {
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference) {
     PipelineResult out;
+    if (desc.progressive.enabled() && desc.render.integrator == Integrator::Photon) {
+        ProgressiveResult p = run_progressive(desc, reference, quiet);
+        return {std::move(p.aov), true, std::move(p.report)};
+    }
     Report& report = out.report;
     const auto [plan, scene] = plan_and_load(desc, quiet, &report);
     // One thread limit for every parallel phase of this run.

@@ -29,8 +29,10 @@ struct LoadedScene {
 /// plan and its "load" phase. Throws InputError for unreadable scene data.
 LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report);
 
-/// Runs `desc` with desc.render.threads threads. Progress and warnings on stderr unless quiet.
-/// Throws InputError for unreadable scene data (meshes, VDB files).
-PipelineResult run_pipeline(const SceneDesc& desc, bool quiet);
+/// Runs `desc` with desc.render.threads threads — progressive iterations (render/progressive.h)
+/// when desc.progressive asks for them and the integrator is the photon map. Progress and
+/// warnings on stderr unless quiet; `reference` (optional) only feeds the per-iteration error of
+/// progressive runs. Throws InputError for unreadable scene data (meshes, VDB files).
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr);
 
 }  // namespace fogmap

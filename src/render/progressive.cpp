@@ -63,8 +63,8 @@ float next_radius(float radius, int i, float alpha, int dimensions) {
     return static_cast<float>(radius * std::pow(ratio, 1.0 / dimensions));
 }
 
-ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettings& settings,
-                                  const Image* reference, bool quiet) {
+ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference, bool quiet) {
+    const ProgressiveDesc& settings = desc.progressive;
     ProgressiveResult result;
     Report& report = result.report;
     const Timer timer;
@@ -75,16 +75,25 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettin
 
     GatherOverride gather{gather_radii(*scene), true};
     AovImages sum;
-    double photon_s = 0.0, build_s = 0.0, render_s = 0.0;
+    double photon_s = 0.0, render_s = 0.0;
+    double build_s[3] = {0.0, 0.0, 0.0};  // global, caustic, volume
     for (int i = 1;; ++i) {
         scene->desc.render.seed = mix64(desc.render.seed * 0x9E3779B97F4A7C15ull + i);
         PhotonPassResult pass = trace_photons(*scene, plan, true);
         photon_s += pass.time_s;
         report.photons_emitted += pass.emitted;
-        const Timer build;
         const PhotonMaps maps = build_trees(std::move(pass));
-        build_s += build.seconds();
-        if (i == 1) {  // radii the scene leaves at 0 start from the first maps' photon density
+        const std::optional<PhotonMap>* built[] = {&maps.global, &maps.caustic, &maps.volume};
+        for (int m = 0; m < 3; ++m)
+            if (*built[m]) build_s[m] += (*built[m])->build_s;
+        if (i == 1) {
+            // The report's maps are one iteration's: the memory held at any time.
+            const char* names[] = {"global", "caustic", "volume"};
+            for (int m = 0; m < 3; ++m)
+                if (*built[m])
+                    report.maps.push_back({names[m], (*built[m])->tree.size(), (*built[m])->emitted,
+                                           (*built[m])->tree.bytes(), (*built[m])->build_s});
+            // Radii the scene leaves at 0 start from the first maps' photon density.
             if (maps.global && desc.global.radius == 0.0f)
                 gather.radii.global =
                     initial_radius(*maps.global, desc.global.k, gather.radii.global);
@@ -109,7 +118,7 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettin
         it.index = i;
         it.elapsed_s = timer.seconds();
         it.radii = gather.radii;
-        for (const auto* map : {&maps.global, &maps.caustic, &maps.volume})
+        for (const auto* map : built)
             if (*map) it.photon_bytes += (*map)->tree.bytes();
         if (reference) it.rel_mse = image_error(scaled(sum, 1.0f / i).beauty, *reference).rel_mse;
         result.iterations.push_back(it);
@@ -121,14 +130,16 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettin
         gather.radii.global = next_radius(gather.radii.global, i, settings.alpha, 2);
         gather.radii.caustic = next_radius(gather.radii.caustic, i, settings.alpha, 2);
         gather.radii.volume = next_radius(gather.radii.volume, i, settings.alpha, 3);
-        if (settings.max_iterations > 0 && i >= settings.max_iterations) break;
-        if (settings.time_budget_s > 0.0 && timer.seconds() >= settings.time_budget_s) break;
-        if (settings.max_iterations <= 0 && settings.time_budget_s <= 0.0) break;
+        if (settings.iterations > 0 && i >= settings.iterations) break;
+        if (settings.time_budget > 0.0f && timer.seconds() >= settings.time_budget) break;
+        if (!settings.enabled()) break;
     }
     const int n = static_cast<int>(result.iterations.size());
     result.aov = scaled(sum, 1.0f / n);
     report.phases_s.emplace_back("photon pass", photon_s);
-    report.phases_s.emplace_back("build", build_s);
+    report.phases_s.emplace_back("build global", build_s[0]);
+    report.phases_s.emplace_back("build caustic", build_s[1]);
+    report.phases_s.emplace_back("build volume", build_s[2]);
     report.phases_s.emplace_back("render", render_s);
     report.scene = desc.path;
     report.settings = settings_json(desc);
@@ -137,6 +148,13 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettin
     report.spp = desc.render.spp * n;
     report.render_s = render_s;
     report.mean = result.aov.beauty.mean();
+    for (const ProgressiveIteration& it : result.iterations)
+        report.iterations.push_back(
+            {{"index", it.index},
+             {"elapsed_s", it.elapsed_s},
+             {"radii", {it.radii.global, it.radii.caustic, it.radii.volume}},
+             {"rel_mse", it.rel_mse},
+             {"photon_bytes", it.photon_bytes}});
     return result;
 }
 

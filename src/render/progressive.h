@@ -14,12 +14,6 @@
 
 namespace fogmap {
 
-struct ProgressiveSettings {
-    double time_budget_s = 0.0;  ///< stop once this much time has passed (0 = no limit)
-    int max_iterations = 0;      ///< stop after this many iterations (0 = no limit)
-    float alpha = 2.0f / 3.0f;   ///< radius reduction (Knaus and Zwicker use 2/3)
-};
-
 struct ProgressiveIteration {
     int index = 0;            ///< 1-based
     double elapsed_s = 0.0;   ///< since the start, after this iteration
@@ -31,16 +25,15 @@ struct ProgressiveIteration {
 struct ProgressiveResult {
     AovImages aov;  ///< mean over iterations
     std::vector<ProgressiveIteration> iterations;
-    Report report;
+    Report report;  ///< phases summed over iterations; one JSON entry per iteration
 };
 
 /// The radius for iteration i + 1 from iteration i's (i >= 1), in `dimensions` 2 or 3.
 float next_radius(float radius, int i, float alpha, int dimensions);
 
-/// Runs iterations of `desc` (photon integrator) until the budget or the count is reached (at
-/// least one). Progress per iteration on stderr unless quiet; rel_mse per iteration when a
-/// reference is given.
-ProgressiveResult run_progressive(const SceneDesc& desc, const ProgressiveSettings& settings,
-                                  const Image* reference, bool quiet);
+/// Runs iterations of `desc` (photon integrator) until desc.progressive's budget or count is
+/// reached (at least one). Progress per iteration on stderr unless quiet; rel_mse per iteration
+/// when a reference is given. run_pipeline calls it when desc.progressive.enabled().
+ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference, bool quiet);
 
 }  // namespace fogmap

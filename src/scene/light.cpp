@@ -181,7 +181,9 @@ Color light_power(const Light& l, const Box3& bounds) {
     return Color(0.0f);
 }
 
-bool sample_photon(const Light& l, const Box3& bounds, Rng& rng, Ray* ray) {
+bool sample_photon(const Light& l, const Box3& bounds, const PhotonFocus* focus, Rng& rng, Ray* ray,
+                   float* weight) {
+    *weight = 1.0f;
     const Vec2 u(rng.uniform(), rng.uniform());
     switch (l.type) {
         case LightType::Point:
@@ -218,9 +220,37 @@ bool sample_photon(const Light& l, const Box3& bounds, Rng& rng, Ray* ray) {
             } else {
                 d = l.direction;
             }
+            const Vec3 c = bounds.center();
+            const float r = bounding_radius(bounds);
             const Vec2 v(rng.uniform(), rng.uniform());
-            *ray = Ray{disc_origin(bounds.center(), bounding_radius(bounds), d, v), d};
-            return true;
+            if (!focus || focus->bounds.empty()) {
+                *ray = Ray{disc_origin(c, r, d, v), d};
+                return true;
+            }
+            // The focus sphere's shadow on the disc: a disc of radius rf around cf.
+            const Vec3 to = focus->bounds.center() - c;
+            const Vec3 cf = c + to - glm::dot(to, d) * d;
+            const float rf = bounding_radius(focus->bounds);
+            const float a = rf * rf / (r * r), f = focus->fraction;
+            if (!(a < 0.25f && a < f && f < 1.0f)) {
+                *ray = Ray{disc_origin(c, r, d, v), d};
+                return true;
+            }
+            if (rng.uniform() < f) {
+                *weight = a / f;
+                *ray = Ray{disc_origin(cf, rf, d, v) - 1.01f * (r - rf) * d, d};
+                return true;
+            }
+            *weight = (1.0f - a) / (1.0f - f);
+            for (int attempt = 0; attempt < 64; ++attempt) {
+                const Vec3 o = disc_origin(c, r, d, Vec2(rng.uniform(), rng.uniform()));
+                const Vec3 q = o - cf;
+                if (glm::dot(q, q) - glm::dot(q, d) * glm::dot(q, d) >= rf * rf) {
+                    *ray = Ray{o, d};
+                    return true;
+                }
+            }
+            return false;
         }
     }
     return false;

@@ -103,6 +103,11 @@ struct PhotonSettings {
     uint64_t volume = 100000;  ///< scattering events in media after at least one interaction
     uint64_t max_emitted = 0;  ///< cap on emitted photons; 0 = 100 x the largest budget
     int max_bounces = 64;      ///< interactions per photon path, >= 1
+    /// Share of sun and environment photons aimed at the media's bounding sphere (reweighted,
+    /// so unbiased; scene/light.h PhotonFocus); 0 = as many as its cross-section gets. Off by
+    /// default: on smoke.json it trades photon-pass time for noise at about the same error per
+    /// second (README, Choosing gather settings).
+    float media_fraction = 0.0f;
 };
 
 /// Surface global map: disc estimate, shown directly or through final gathering.
@@ -132,8 +137,20 @@ struct VolumeGatherSettings {
     VolumeEstimator estimator = VolumeEstimator::Sphere;
     /// Volume-map lookups per camera ray: at steps drawn by stratified importance sampling of
     /// the march's weights and reweighted, so the march sum stays unbiased; 0 = every step.
-    /// (Single scattering takes its shadow rays at every step.)
     int lookups_per_ray = 8;
+    /// Single scattering along each marched camera segment: shadow rays per light at points
+    /// drawn ∝ the march's weights (and, for point and spot lights, as many again by equi-angular
+    /// sampling, combined by the balance heuristic); 0 = a shadow ray at every step.
+    int light_samples = 2;
+};
+
+/// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0
+/// (photon integrator only): iterations of photon pass + render with shrinking fixed radii.
+struct ProgressiveDesc {
+    int iterations = 0;         ///< stop after this many iterations (0 = no limit)
+    float time_budget = 0.0f;   ///< stop once this many seconds have passed (0 = no limit)
+    float alpha = 2.0f / 3.0f;  ///< radius reduction, in (0, 1)
+    bool enabled() const { return iterations > 0 || time_budget > 0.0f; }
 };
 
 struct SceneDesc {
@@ -150,6 +167,7 @@ struct SceneDesc {
     CausticGatherSettings caustic;
     VolumeGatherSettings volume;
     MarchSettings march;
+    ProgressiveDesc progressive;
 };
 
 /// String tables shared by the parser, its error messages and the report.

@@ -151,6 +151,7 @@ void photon_fields(P& p, V& v) {
     v.value("volume", p.volume);
     v.value("max_emitted", p.max_emitted);
     v.value("max_bounces", p.max_bounces);
+    v.value("media_fraction", p.media_fraction);
 }
 
 template <class G, class V>
@@ -174,6 +175,7 @@ void volume_fields(G& g, V& v) {
     v.value("radius", g.radius);
     v.choice("estimator", g.estimator, kVolumeEstimators, "volume estimator");
     v.value("lookups_per_ray", g.lookups_per_ray);
+    v.value("light_samples", g.light_samples);
 }
 
 template <class M, class V>
@@ -181,6 +183,13 @@ void march_fields(M& m, V& v) {
     v.choice("method", m.method, kFreePathMethods, "free path method");
     v.value("step_voxels", m.step_voxels);
     v.value("step_world", m.step_world);
+}
+
+template <class P, class V>
+void progressive_fields(P& p, V& v) {
+    v.value("iterations", p.iterations);
+    v.value("time_budget", p.time_budget);
+    v.value("alpha", p.alpha);
 }
 
 // ---- Reading -----------------------------------------------------------------------------------
@@ -520,6 +529,8 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
     read_object(top, "caustic", desc.caustic, [](auto& x, auto& f) { caustic_fields(x, f); });
     read_object(top, "volume", desc.volume, [](auto& x, auto& f) { volume_fields(x, f); });
     read_object(top, "march", desc.march, [](auto& x, auto& f) { march_fields(x, f); });
+    read_object(top, "progressive", desc.progressive,
+                [](auto& x, auto& f) { progressive_fields(x, f); });
     top.finish();
     return desc;
 }
@@ -541,6 +552,8 @@ json settings_json(const SceneDesc& desc) {
         write_object(desc.volume, [](const auto& x, FieldWriter& f) { volume_fields(x, f); });
     j["march"] =
         write_object(desc.march, [](const auto& x, FieldWriter& f) { march_fields(x, f); });
+    j["progressive"] = write_object(
+        desc.progressive, [](const auto& x, FieldWriter& f) { progressive_fields(x, f); });
     return j;
 }
 

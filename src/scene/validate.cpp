@@ -363,6 +363,9 @@ void check_photons(const SceneDesc& desc) {
     k.uint_range("caustic", p.caustic, 0, kMaxPhotonBudget);
     k.uint_range("volume", p.volume, 0, kMaxPhotonBudget);
     k.int_range("max_bounces", p.max_bounces, 1, kMaxDepthLimit);
+    if (!(p.media_fraction >= 0.0f && p.media_fraction < 1.0f))
+        k.fail("media_fraction",
+               "media_fraction must be in [0, 1); found " + num(p.media_fraction));
 }
 
 void check_gather(const SceneDesc& desc) {
@@ -392,6 +395,7 @@ void check_gather(const SceneDesc& desc) {
         k.int_range("k", v.k, 1, kMaxGatherK);
         k.non_negative("radius", v.radius);
         k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
+        k.int_range("light_samples", v.light_samples, 0, 4096);
     }
 }
 
@@ -403,6 +407,17 @@ void check_march(const SceneDesc& desc) {
                "step_voxels must be finite, > 0 and <= 1000000; found " + num(m.step_voxels));
     }
     k.non_negative("step_world", m.step_world);
+}
+
+void check_progressive(const SceneDesc& desc) {
+    const ProgressiveDesc& p = desc.progressive;
+    const Checker k(desc, "/progressive");
+    k.int_range("iterations", p.iterations, 0, 1000000);
+    k.non_negative("time_budget", p.time_budget);
+    k.range("alpha", p.alpha, 0.0f, 1.0f, true);
+    if (p.enabled() && desc.render.integrator != Integrator::Photon)
+        k.fail("", "progressive photon mapping needs render.integrator \"photon\"; found \"" +
+                       std::string(to_string(desc.render.integrator)) + "\"");
 }
 
 }  // namespace
@@ -417,6 +432,7 @@ void validate(const SceneDesc& desc) {
     check_photons(desc);
     check_gather(desc);
     check_march(desc);
+    check_progressive(desc);
 }
 
 }  // namespace fogmap

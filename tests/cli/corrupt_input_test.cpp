@@ -1,15 +1,21 @@
 // Hostile input through the fogmap command line (issue 5, part 5): truncated and bit-flipped VDB
-// files, truncated JSON, JSON with huge numbers or deep nesting, a PLY whose header claims 1e12
+// files, VDBs crafted to overflow OpenVDB 10.0's blosc reader or to make it allocate 4 GB,
+// truncated JSON, JSON with huge numbers or deep nesting, a PLY whose header claims 1e12
 // vertices. Each must end with exit code 2, exactly one message line "fogmap: error: <file>: ...",
 // no new file in the output folder and an existing output left untouched. The corrupted files
-// are made by the test from ../shared/volumes in a temp folder (never committed).
+// are made by the test (from ../shared/volumes or with OpenVDB) in a temp folder (never
+// committed).
 
 #include <gtest/gtest.h>
+#include <openvdb/openvdb.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -48,10 +54,11 @@ protected:
     }
     void TearDown() override { fs::remove_all(dir_); }
 
-    RunResult run(const std::string& args) {
+    /// Runs fogmap with `args` through the shell, after `shell_prefix` (e.g. "ulimit -v N; ").
+    RunResult run(const std::string& args, const std::string& shell_prefix = "") {
         const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd =
-            std::string(FOGMAP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
+        const std::string cmd = shell_prefix + std::string(FOGMAP_BINARY) + " " + args + " >" +
+                                out.string() + " 2>" + err.string();
         const int status = std::system(cmd.c_str());
         RunResult r;
         r.signaled = WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) > 128);
@@ -170,6 +177,75 @@ TEST_F(CorruptInput, BitFlippedVdbBodyNeverCrashes) {
         fs::remove(out);
         fs::remove(dir_ / "body.png");
     }
+}
+
+/// A 32^3 float grid of random values (64 all-active leaves) written with blosc, whose first leaf
+/// chunk's 8-byte size field is patched to claim a 128 KB uncompressed chunk (a negative size).
+/// OpenVDB 10.0's io::bloscFromStream reads that many bytes into the 2 KB leaf buffer before it
+/// checks the size: a heap-buffer-overflow ("malloc(): corrupted top size", SIGABRT) unless
+/// fogmap reads the file in a child process first (media/vdb_probe.h).
+void write_blosc_overflow_vdb(const fs::path& p) {
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    auto acc = grid->getAccessor();
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (int x = 0; x < 32; ++x)
+        for (int y = 0; y < 32; ++y)
+            for (int z = 0; z < 32; ++z) acc.setValue(openvdb::Coord(x, y, z), u(rng));
+    openvdb::io::File file(p.string());
+    file.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
+    file.write({grid});
+    file.close();
+    // A leaf's buffer: value mask (64 bytes 0xff: all active), metadata byte 0 (no inactive
+    // values to store), int64 chunk size, blosc chunk (format version byte 2).
+    std::string bytes = slurp(p);
+    const std::string leaf_head = std::string(64, '\xff') + '\0';
+    const size_t at = bytes.find(leaf_head) + leaf_head.size();
+    ASSERT_LT(at + 9, bytes.size()) << "no all-active leaf found";
+    int64_t size = 0;
+    std::memcpy(&size, &bytes[at], 8);
+    ASSERT_TRUE(size > 0 && size <= 2048 + 16) << "chunk size " << size;
+    ASSERT_EQ(bytes[at + 8], '\x02') << "blosc format version";
+    const int64_t claimed = -2048 * 64;
+    std::memcpy(&bytes[at], &claimed, 8);
+    spit(p, bytes);
+}
+
+TEST_F(CorruptInput, VdbChunkSizeOverflowIsRejected) {
+    const fs::path vdb = dir_ / "overflow.vdb";
+    ASSERT_NO_FATAL_FAILURE(write_blosc_overflow_vdb(vdb));
+    const RunResult r = run("info " + vdb.string());
+    expect_clear_error(r, "overflow.vdb");
+    EXPECT_NE(r.err.find("VDB file"), std::string::npos) << r.err;
+    expect_rejected(vdb_scene(vdb), "overflow.vdb");
+}
+
+TEST_F(CorruptInput, VdbGridNameOfFourGigabytesIsRejected) {
+    const std::string bytes = shared_vdb();
+    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    // The first grid descriptor's name length (uint32 before "density") set to ~4 GB: OpenVDB
+    // allocates and reads on (with no memory limit a reader grew to 24 GB until killed). The
+    // probe's child fails at its own limit; `ulimit -v` (KB) only keeps a regression from taking
+    // the machine's memory (fogmap then fails with a bare "std::bad_alloc").
+    std::string patched = bytes;
+    const size_t at = patched.find(std::string("\x07\0\0\0density", 11));
+    ASSERT_NE(at, std::string::npos);
+    const uint32_t length = 0xfffffe00u;
+    std::memcpy(&patched[at], &length, 4);
+    const fs::path vdb = dir_ / "name.vdb";
+    spit(vdb, patched);
+    const RunResult r = run("info " + vdb.string(), "ulimit -v 4194304; ");
+    expect_clear_error(r, "name.vdb");
+    EXPECT_NE(r.err.find("memory"), std::string::npos) << r.err;
+}
+
+TEST_F(CorruptInput, VdbProbeIsHiddenFromHelp) {
+    const RunResult r = run("--help");
+    EXPECT_EQ(r.code, 0);
+    EXPECT_NE(r.out.find("info"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("__probe-vdb"), std::string::npos) << r.out;
 }
 
 TEST_F(CorruptInput, TruncatedJsonGivesLineAndColumn) {

@@ -1,7 +1,8 @@
 // DensityGrid: trilinear sampling equals hand interpolation (voxel centres at integers, 0 outside),
 // majorants bound every sample and are tight, tiles count as voxels, bad voxels are zeroed and
 // counted, the index→world matrix is GLM column-vector, and the four real VDB files of
-// /work/shared/volumes load with the figures their SOURCES.md states.
+// /work/shared/volumes load with the figures their SOURCES.md states. The sampler (bricks built at
+// load) equals openvdb::tools::BoxSampler on the tree OpenVDB reads from the same file.
 
 #include "media/density_grid.h"
 
@@ -11,8 +12,10 @@
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Interpolation.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -406,6 +409,108 @@ TEST_F(DensityGridTest, DisneyCloudTilesSampleAsHalf) {
         }
     }
     EXPECT_EQ(tiles, 130);
+}
+
+/// Reads grid "density" of `path` with OpenVDB alone (the reference side of the comparisons).
+openvdb::FloatGrid::Ptr read_raw(const std::string& path) {
+    openvdb::io::File f(path);
+    f.open();
+    auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
+    f.close();
+    return grid;
+}
+
+/// Largest |DensityGrid::Sampler - BoxSampler| over `points` (BoxSampler on `raw`).
+float max_diff_vs_box_sampler(const DensityGrid& grid, const openvdb::FloatGrid& raw,
+                              const std::vector<Vec3>& points) {
+    DensityGrid::Sampler s(grid);
+    const openvdb::FloatGrid::ConstAccessor acc = raw.getConstAccessor();
+    float max_diff = 0.0f;
+    for (const Vec3& p : points) {
+        const float ref = openvdb::tools::BoxSampler::sample(acc, openvdb::Vec3R(p.x, p.y, p.z));
+        max_diff = std::max(max_diff, std::abs(s.density(p) - ref));
+    }
+    return max_diff;
+}
+
+/// `n` points: 3/5 uniform in `box` grown by 3 voxels, 1/5 there with 1-3 coordinates moved
+/// onto or next to a multiple of 8 (leaf, cell and brick borders), 1/10 up to 1000 voxels away,
+/// 1/10 with coordinates in (-1, 1) (the cells around index 0).
+std::vector<Vec3> comparison_points(const Box3& box, size_t n, Rng& rng) {
+    const float offsets[] = {-1.0f, -0.5f, -1e-3f, 0.0f, 1e-3f, 0.5f, 1.0f};
+    const Vec3 lo = box.lo - Vec3(3.0f), ext = box.extent() + Vec3(6.0f);
+    std::vector<Vec3> points;
+    for (size_t i = 0; i < n; ++i) {
+        Vec3 p = lo + ext * Vec3(rng.uniform(), rng.uniform(), rng.uniform());
+        switch (i % 10) {
+            case 6:
+            case 7:
+                for (int a = 0; a < 3; ++a)
+                    if (a == 0 || rng.uniform() < 0.5f)
+                        p[a] = 8.0f * std::floor(p[a] / 8.0f) + offsets[rng.next_u32() % 7];
+                break;
+            case 8:
+                p = box.center() + 2000.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) -
+                    Vec3(1000.0f);
+                break;
+            case 9:
+                p = Vec3(rng.uniform(), rng.uniform(), rng.uniform()) * 2.0f - Vec3(1.0f);
+                break;
+        }
+        points.push_back(p);
+    }
+    return points;
+}
+
+TEST_F(DensityGridTest, SamplerMatchesBoxSampler) {
+    // Random leaves (some voxels inactive: holes at 0, others keeping a value, which BoxSampler
+    // reads too) at negative and positive coordinates, and an active leaf-sized tile among them.
+    openvdb::FloatGrid::Ptr g = openvdb::FloatGrid::create(0.0f);
+    auto acc = g->getAccessor();
+    Rng rng(2024, 5);
+    for (int lx = -3; lx <= 2; ++lx)
+        for (int ly = -2; ly <= 2; ++ly)
+            for (int lz = -1; lz <= 3; ++lz) {
+                if (rng.uniform() < 0.4f) continue;
+                for (int v = 0; v < 512; ++v) {
+                    const openvdb::Coord c(8 * lx + (v >> 6), 8 * ly + ((v >> 3) & 7),
+                                           8 * lz + (v & 7));
+                    const float u = rng.uniform();
+                    if (u < 0.1f) {
+                        acc.setValueOff(c, 0.0f);
+                    } else if (u < 0.15f) {
+                        acc.setValueOff(c, rng.uniform());
+                    } else {
+                        acc.setValue(c, rng.uniform());
+                    }
+                }
+            }
+    g->tree().addTile(1, openvdb::Coord(0, 0, 8), 0.7f, true);  // replaces a leaf if one is there
+    ASSERT_EQ(g->tree().activeTileCount(), 1u);
+    g->setName("density");
+    write_vdb(path("mix.vdb"), g);
+    auto grid = DensityGrid::load(path("mix.vdb"), "density", "");
+    ASSERT_EQ(grid->sanitize_stats().total(), 0u);
+    EXPECT_FLOAT_EQ(DensityGrid::Sampler(*grid).density(Vec3(4.0f, 3.5f, 11.2f)), 0.7f);
+    // Trilinear rounding is relative to the stencil's values, here <= 1: 1e-6 is ~8 float ulps
+    // of 1 (the sampler equals BoxSampler but for 1-ulp weight roundings near index 0).
+    const std::vector<Vec3> points = comparison_points(grid->index_bounds(), 100000, rng);
+    EXPECT_LE(max_diff_vs_box_sampler(*grid, *read_raw(path("mix.vdb")), points), 1e-6f);
+}
+
+TEST_F(DensityGridTest, SamplerMatchesBoxSamplerOnSharedVolumes) {
+    for (const char* name : {"smoke1.vdb", "wdas_cloud_sixteenth.vdb"}) {
+        SCOPED_TRACE(name);
+        const std::string file = shared_file(name);
+        if (file.empty()) GTEST_SKIP() << "shared volumes absent";
+        auto grid = DensityGrid::load(file, "density", "");
+        ASSERT_EQ(grid->sanitize_stats().total(), 0u);  // so the raw tree is the sampled one
+        Rng rng(99, 6);
+        const std::vector<Vec3> points = comparison_points(grid->index_bounds(), 100000, rng);
+        // As above, relative to the largest voxel value.
+        EXPECT_LE(max_diff_vs_box_sampler(*grid, *read_raw(file), points),
+                  1e-6f * grid->max_density());
+    }
 }
 
 struct SharedFile {

@@ -1,6 +1,7 @@
 // The photon pass: maps the Plan leaves out are never allocated, results do not depend on the
 // thread count, a scene that stores nothing stops at the emission cap with a warning, and the
-// caustic map's irradiance on a wall lit through a mirror converges to the analytic E sin θ.
+// caustic map's irradiance on a wall lit through a mirror converges to the analytic E sin θ,
+// and photons focused on the media carry the power that crosses any sphere (E π r², 4π² r² L).
 
 #include "photon/photon_pass.h"
 
@@ -156,6 +157,66 @@ TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
             EXPECT_NEAR(sum / 9.0, expected, 3.0 * se) << count << " photons in the discs";
         }
     }
+}
+
+// Power carried into a test sphere by n photons of `light`, with and without a focus:
+// Σ weight × [the ray enters the sphere] × Φ / n, with its standard error.
+struct Flux {
+    double mean, standard_error;
+};
+
+Flux flux_into_sphere(const Light& light, const Box3& scene, const PhotonFocus* focus,
+                      const Vec3& centre, float radius, int n) {
+    const double power = average(light_power(light, scene));
+    double sum = 0.0, sum2 = 0.0;
+    for (int i = 0; i < n; ++i) {
+        Rng rng(11, i);
+        Ray ray;
+        float weight = 0.0f;
+        if (!sample_photon(light, scene, focus, rng, &ray, &weight)) continue;
+        const Vec3 oc = centre - ray.o;
+        const float along = glm::dot(oc, ray.d);
+        const bool hits = along > 0.0f && glm::dot(oc, oc) - along * along < radius * radius;
+        const double v = hits ? weight * power : 0.0;
+        sum += v;
+        sum2 += v * v;
+    }
+    const double mean = sum / n;
+    return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
+}
+
+TEST(PhotonFocus, FocusedSunAndSkyPhotonsCarryTheRightPowerEverywhere) {
+    const Box3 scene{Vec3(-8.0f, 0.0f, -8.0f), Vec3(8.0f, 4.0f, 8.0f)};
+    PhotonFocus focus;
+    focus.bounds = Box3{Vec3(-1.0f, 0.5f, -1.0f), Vec3(1.0f, 2.5f, 1.0f)};
+    Light sunlight = make_light(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
+    LightDesc sky_desc;
+    sky_desc.type = LightType::Environment;
+    sky_desc.radiance = Color(0.5f);
+    const Light sky = make_light(sky_desc);
+    // Test spheres inside the focus, far outside it, and across its edge.
+    const std::vector<std::pair<Vec3, float>> spheres{{Vec3(0.0f, 1.5f, 0.0f), 0.5f},
+                                                      {Vec3(5.0f, 1.0f, 4.0f), 2.0f},
+                                                      {Vec3(1.5f, 1.5f, 0.5f), 1.0f}};
+    for (const auto& [centre, radius] : spheres) {
+        const double sun_expected = 2.0 * kPi * radius * radius;
+        const double sky_expected = 4.0 * kPi * kPi * radius * radius * 0.5;
+        for (const PhotonFocus* f :
+             {static_cast<const PhotonFocus*>(nullptr), static_cast<const PhotonFocus*>(&focus)}) {
+            const Flux a = flux_into_sphere(sunlight, scene, f, centre, radius, 1000000);
+            EXPECT_NEAR(a.mean, sun_expected, 4.0 * a.standard_error)
+                << "sun, sphere at x " << centre.x << (f ? ", focused" : "");
+            const Flux b = flux_into_sphere(sky, scene, f, centre, radius, 1000000);
+            EXPECT_NEAR(b.mean, sky_expected, 4.0 * b.standard_error)
+                << "sky, sphere at x " << centre.x << (f ? ", focused" : "");
+        }
+    }
+    // The focus puts more photons into its own sphere: a lower standard error there.
+    const Flux plain =
+        flux_into_sphere(sunlight, scene, nullptr, Vec3(0.0f, 1.5f, 0.0f), 0.5f, 100000);
+    const Flux focused =
+        flux_into_sphere(sunlight, scene, &focus, Vec3(0.0f, 1.5f, 0.0f), 0.5f, 100000);
+    EXPECT_LT(focused.standard_error, 0.5 * plain.standard_error);
 }
 
 }  // namespace

@@ -92,26 +92,12 @@ TEST(ParetoFrontier, MonotoneTradeOffKeepsEveryPoint) {
 TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     const std::vector<std::string> keys = {"photons.volume", "volume.k"};
     const std::string header = bench_csv_header(keys);
-    const std::vector<std::string> expected = {"method",
-                                               "photons.volume",
-                                               "volume.k",
-                                               "spp",
-                                               "repeats",
-                                               "load_s",
-                                               "photon_pass_s",
-                                               "build_global_s",
-                                               "build_caustic_s",
-                                               "build_volume_s",
-                                               "precompute_s",
-                                               "render_s",
-                                               "total_s",
-                                               "stored_global",
-                                               "stored_caustic",
-                                               "stored_volume",
-                                               "bytes",
-                                               "rmse",
-                                               "rel_mse",
-                                               "bias"};
+    const std::vector<std::string> expected = {
+        "method",          "photons.volume", "volume.k",       "spp",
+        "repeats",         "load_s",         "photon_pass_s",  "build_global_s",
+        "build_caustic_s", "build_volume_s", "precompute_s",   "render_s",
+        "total_s",         "stored_global",  "stored_caustic", "stored_volume",
+        "bytes",           "rmse",           "rel_mse",        "bias"};
     ASSERT_EQ(header.back(), '\n');
     EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
 
@@ -264,6 +250,24 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     ASSERT_EQ(again.code, 0) << again.err;
     EXPECT_NE(again.err.find("reusing"), std::string::npos) << again.err;
     EXPECT_EQ(split(slurp(dir_ / "out" / "b.csv"), '\n').size(), 6u);
+}
+
+TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
+    const RunResult r =
+        run("--reference-spp 16 --sweep progressive.iterations=0,1,8 --path-spp none" + outputs());
+    ASSERT_EQ(r.code, 0) << r.err;
+    const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
+    ASSERT_EQ(lines.size(), 5u);  // header, 3 runs, ""
+    EXPECT_EQ(split(lines[0], ',')[1], "progressive.iterations");
+    std::vector<double> rel_mse;
+    for (int i = 1; i <= 3; ++i) {
+        const std::vector<std::string> f = split(lines[i], ',');
+        EXPECT_GE(std::stoi(f[15]), 300) << lines[i];  // one iteration's volume map
+        rel_mse.push_back(std::stod(f[18]));
+    }
+    // The mean of 8 independent iterations with shrinking radii is closer to the reference than
+    // one iteration (the first iteration gathers with fixed radii, not k nearest).
+    EXPECT_LT(rel_mse[2], 0.5 * rel_mse[1]);
 }
 
 TEST_F(BenchCommand, BadInputExitsTwoAndLeavesTheOldCsv) {

@@ -95,11 +95,13 @@ json full_scene() {
       "render": {"integrator": "path", "spp": 64, "max_depth": 12,
                  "seed": 18446744073709551615, "threads": 3},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
-                  "max_bounces": 7},
+                  "max_bounces": 7, "media_fraction": 0.25},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
-      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5},
-      "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01}
+      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
+                 "light_samples": 3},
+      "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
+      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5}
     })");
 }
 
@@ -161,6 +163,8 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.volume.k, 30);
     EXPECT_EQ(d.volume.radius, 0.25f);
     EXPECT_EQ(d.volume.lookups_per_ray, 5);
+    EXPECT_EQ(d.volume.light_samples, 3);
+    EXPECT_EQ(d.progressive.alpha, 0.5f);
     EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
     EXPECT_EQ(d.march.method, FreePathMethod::Delta);
     EXPECT_EQ(d.march.step_voxels, 0.5f);
@@ -220,6 +224,7 @@ TEST(SceneDescJson, FullSceneRoundTripsThroughToJson) {
     EXPECT_EQ(j["caustic"], full_scene()["caustic"]);
     EXPECT_EQ(j["volume"], full_scene()["volume"]);
     EXPECT_EQ(j["march"], full_scene()["march"]);
+    EXPECT_EQ(j["progressive"], full_scene()["progressive"]);
     EXPECT_EQ(j["render"], full_scene()["render"]);
     // Floats print as the shortest decimal that reads back the same: 0.27, not 0.27000001.
     EXPECT_EQ(j["lights"][3]["angular_radius_deg"].dump(), "0.27");
@@ -245,17 +250,18 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     EXPECT_EQ(top.field, "/medias");
     EXPECT_EQ(top.reason,
               "unknown key 'medias'; known keys: camera, caustic, global, lights, march, "
-              "materials, media, photons, render, shapes, volume");
+              "materials, media, photons, progressive, render, shapes, volume");
 
     const InputError volume = parse_error(json::parse(R"({"volume": {"kk": 64}})"));
     EXPECT_EQ(volume.field, "/volume/kk");
-    EXPECT_EQ(volume.reason, "unknown key 'kk'; known keys: estimator, k, lookups_per_ray, radius");
+    EXPECT_EQ(volume.reason,
+              "unknown key 'kk'; known keys: estimator, k, light_samples, lookups_per_ray, radius");
 
     const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
     EXPECT_EQ(photons.field, "/photons/surface");
     EXPECT_EQ(photons.reason,
               "unknown key 'surface'; known keys: caustic, global, max_bounces, max_emitted, "
-              "volume");
+              "media_fraction, volume");
 }
 
 TEST(SceneDescJson, FieldsOfAnotherTypeAreUnknownKeys) {
@@ -363,7 +369,8 @@ TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
                        {"global", full["global"]},
                        {"caustic", full["caustic"]},
                        {"volume", full["volume"]},
-                       {"march", full["march"]}}));
+                       {"march", full["march"]},
+                       {"progressive", full["progressive"]}}));
 
     // Defaults are written too (the report shows what ran, not what the file said).
     const json defaults = settings_json(SceneDesc{});
@@ -598,6 +605,18 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "step_voxels must be finite, > 0 and <= 1000000; found 2e+06"},
         {R"({"march": {"step_world": -0.1}})", "/march/step_world",
          "step_world must be finite and >= 0; found -0.1"},
+        {R"({"photons": {"media_fraction": 1}})", "/photons/media_fraction",
+         "media_fraction must be in [0, 1); found 1"},
+        {R"({"volume": {"light_samples": -1}})", "/volume/light_samples",
+         "light_samples must be in [0, 4096]; found -1"},
+        {R"({"progressive": {"alpha": 1}})", "/progressive/alpha",
+         "alpha must be in (0, 1); found 1"},
+        {R"({"progressive": {"iterations": -2}})", "/progressive/iterations",
+         "iterations must be in [0, 1000000]; found -2"},
+        {R"({"progressive": {"time_budget": -1}})", "/progressive/time_budget",
+         "time_budget must be finite and >= 0; found -1"},
+        {R"({"progressive": {"iterations": 4}})", "/progressive",
+         "progressive photon mapping needs render.integrator \"photon\"; found \"path\""},
     };
     for (const Case& c : cases) {
         json doc = full_scene();

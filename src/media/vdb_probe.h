@@ -1,0 +1,30 @@
+#pragma once
+// Crash guard for OpenVDB's file reader. OpenVDB 10.0 overflows a heap buffer on a corrupt blosc
+// chunk size (io::bloscFromStream reads before it checks the size) and allocates up to 4 GB from
+// 32-bit lengths in a file, so a crafted .vdb can abort fogmap instead of failing with a message.
+// Before fogmap reads a VDB file, the fogmap binary reads it once in a child process
+// (`fogmap __probe-vdb FILE`, hidden from --help) under a memory and time limit; a crash there
+// becomes an InputError here. Off unless main() enables it: library users and unit tests read
+// files directly. Process-wide state (like the logger), guarded by a mutex: thread-safe.
+
+#include <string>
+
+namespace fogmap {
+
+/// Turns the probe on for this process; `self_exe` is the fogmap binary to re-run (main passes
+/// "/proc/self/exe").
+void enable_vdb_probe(std::string self_exe);
+
+/// Reads every grid of `path` in a child process first. No-op when the probe is off or `path`
+/// passed before in this process. `field` is the JSON pointer quoted in errors. Throws
+/// InputError{path, field, "cannot read VDB file: <OpenVDB's message>"} when the child reports an
+/// error, or "corrupt VDB file: OpenVDB's reader crashed on it (signal N)" (or did not finish in
+/// time); std::runtime_error when the child cannot be started.
+void probe_vdb(const std::string& path, const std::string& field);
+
+/// The child side (`fogmap __probe-vdb FILE`): limits its address space and core dumps, opens
+/// `path` and reads every grid, writes no file. Returns 0, or prints the error on stdout and
+/// returns 2.
+int run_vdb_probe_child(const std::string& path);
+
+}  // namespace fogmap
