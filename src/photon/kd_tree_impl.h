@@ -133,14 +133,27 @@ void KdTree<Record>::knn(const Vec3& p, int k, float r_max, NeighborList* out) c
     // (exclusive: an equally distant record would not improve the answer).
     float limit = detail::inclusive_limit(r_max);
     search(p, &limit, [&](uint32_t index, float dist2) {
-        if (heap.size() == k_max) {
-            std::pop_heap(heap.begin(), heap.end(), closer);
-            heap.back() = Neighbor{index, dist2};
-        } else {
+        if (heap.size() < k_max) {
             heap.push_back(Neighbor{index, dist2});
+            std::push_heap(heap.begin(), heap.end(), closer);
+            if (heap.size() == k_max) limit = heap.front().dist2;
+            return;
         }
-        std::push_heap(heap.begin(), heap.end(), closer);
-        if (heap.size() == k_max) limit = heap.front().dist2;
+        // Full: the new record (closer than the root, by the limit) replaces the root, which
+        // sifts down — one pass instead of pop_heap + push_heap.
+        Neighbor* h = heap.data();
+        const size_t n = heap.size();
+        size_t i = 0;
+        for (;;) {
+            size_t child = 2 * i + 1;
+            if (child >= n) break;
+            if (child + 1 < n && h[child + 1].dist2 > h[child].dist2) ++child;
+            if (!(h[child].dist2 > dist2)) break;
+            h[i] = h[child];
+            i = child;
+        }
+        h[i] = Neighbor{index, dist2};
+        limit = h[0].dist2;
     });
 }
 

@@ -10,6 +10,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include <array>
+#include <cstdio>
 
 namespace fogmap {
 
@@ -200,8 +201,13 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     focus.fraction = scene.desc.photons.media_fraction;
     const PhotonFocus* focused = focus.bounds.empty() || focus.fraction <= 0.0f ? nullptr : &focus;
     // Light ∝ power, then a photon from it, traced.
+    struct ChunkOut {
+        std::vector<TaggedPhoton> photons;
+        uint64_t capped = 0;
+        double capped_power = 0.0;  // Σ average(power) of capped paths (a photon starts at ~1)
+    };
     auto emit = [&](uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
-                    std::vector<TaggedPhoton>& out) {
+                    ChunkOut& out) {
         const float pick = rng.uniform() * emitter.light_cdf.back();
         const size_t li = std::min<size_t>(
             std::upper_bound(emitter.light_cdf.begin(), emitter.light_cdf.end(), pick) -
@@ -210,7 +216,12 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
         Ray ray;
         float weight;
         if (!sample_photon(scene.lights[li], scene.bounds, focused, rng, &ray, &weight)) return;
-        tracer.trace(ray, emitter.light_relative_power[li] * weight, rng, samplers, index, &out);
+        const TracedPath path = tracer.trace(ray, emitter.light_relative_power[li] * weight, rng,
+                                             samplers, index, &out.photons);
+        if (path.end == PathEnd::BounceCap) {
+            ++out.capped;
+            out.capped_power += average(path.power);
+        }
     };
 
     const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
@@ -225,7 +236,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     while (unfilled() && result.emitted < cap) {
         const uint64_t n = std::min(kBatch, cap - result.emitted);
         const uint64_t chunks = (n + kChunk - 1) / kChunk;
-        std::vector<std::vector<TaggedPhoton>> out(chunks);
+        std::vector<ChunkOut> out(chunks);
         std::array<bool, 3> store;
         for (int m = 0; m < 3; ++m) store[m] = maps[m] && full_at[m] == 0;
         tracer.set_store(store);
@@ -241,8 +252,10 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
             }
         });
         // Merge in emission order; a map stops at the photon that fills it (whole path kept).
-        for (const std::vector<TaggedPhoton>& chunk : out) {
-            for (const TaggedPhoton& t : chunk) {
+        for (const ChunkOut& chunk : out) {
+            result.capped += chunk.capped;
+            result.capped_power += chunk.capped_power;
+            for (const TaggedPhoton& t : chunk.photons) {
                 const int m = static_cast<int>(t.map);
                 StoredPhotons& map = *maps[m];
                 const uint64_t e = base + t.index;
@@ -270,6 +283,16 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
                 std::string(kNames[m]) + " map: " + std::to_string(maps[m]->photons.size()) +
                 " of " + std::to_string(maps[m]->budget) + " photons stored after " +
                 std::to_string(result.emitted) + " emitted (photons.max_emitted reached)");
+    }
+    if (result.emitted > 0) result.capped_power /= double(result.emitted);
+    if (result.capped_power > 0.01) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "photons.max_bounces = %d cut %llu photon paths carrying %.1f%% of the "
+                      "emitted power; raise it for media of high albedo",
+                      settings.max_bounces, static_cast<unsigned long long>(result.capped),
+                      100.0 * result.capped_power);
+        result.warnings.push_back(text);
     }
     result.time_s = timer.seconds();
     return result;

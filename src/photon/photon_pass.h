@@ -32,6 +32,10 @@ struct StoredPhotons {
 struct PhotonPassResult {
     std::optional<StoredPhotons> global, caustic, volume;  ///< absent when the Plan leaves it out
     uint64_t emitted = 0;                                  ///< photons emitted in all
+    /// Photon paths cut by photons.max_bounces while still carrying power, and that power as a
+    /// share of all emitted power (what the cap removed from the maps' sources).
+    uint64_t capped = 0;
+    double capped_power = 0.0;
     float total_power = 0.0f;  ///< Σ over lights of the channel-average power (W)
     double time_s = 0.0;
     std::vector<std::string> warnings;

@@ -109,7 +109,10 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
             const TrackResult tr = delta_track(ts.media, ray, t_max, rng, &beta);
             if (tr.event == TrackEvent::Absorbed) break;
             if (tr.event == TrackEvent::Scattered) {
-                if (depth >= max_depth_) break;
+                if (depth >= max_depth_) {
+                    ++ts.capped;
+                    break;
+                }
                 ++depth;
                 const Vec3 x = ray.at(tr.t);
                 const float g = scene_.media[tr.medium].params().g;
@@ -145,7 +148,11 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
             L += beta * Le * w;
             break;
         }
-        if (hit->material < 0 || depth >= max_depth_) break;
+        if (hit->material < 0) break;
+        if (depth >= max_depth_) {
+            ++ts.capped;
+            break;
+        }
         ++depth;
         const Material& mat = scene_.materials[hit->material];
         const bool front = glm::dot(ray.d, hit->ng) < 0.0f;

@@ -20,6 +20,7 @@ struct RenderStats {
     uint64_t samples = 0;    ///< camera samples traced
     uint64_t rays = 0;       ///< Embree queries (closest hit + occlusion)
     uint64_t nonfinite = 0;  ///< samples dropped because they were NaN or infinite
+    uint64_t capped = 0;     ///< samples whose path render.max_depth cut while it carried light
     int threads = 0;         ///< worker threads used
 };
 
@@ -31,6 +32,7 @@ public:
     struct ThreadState {
         std::vector<Medium::Sampler> media;
         uint64_t rays = 0;
+        uint64_t capped = 0;  ///< paths cut by max_depth
     };
     ThreadState make_state() const;
 

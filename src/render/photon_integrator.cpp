@@ -338,7 +338,8 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
     Ray ray = camera_ray;
     Color beta(1.0f);
     const SceneDesc& desc = scene_.desc;
-    for (int depth = 0; depth < desc.render.max_depth; ++depth) {
+    int depth = 0;
+    for (; depth < desc.render.max_depth; ++depth) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
         if (scene_.surfaces) {
@@ -412,6 +413,7 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
             ray = Ray{offset_point(hit->p, -n, offset_floor_), wt};
         }
     }
+    if (depth == desc.render.max_depth) ++ts.capped;  // a specular chain ran into the cap
     return out;
 }
 

@@ -61,6 +61,7 @@ public:
         std::vector<MarchedStep> steps;
         std::vector<double> cdf;  ///< scratch: cumulative step weights
         uint64_t rays = 0;
+        uint64_t capped = 0;  ///< camera paths cut by render.max_depth (specular chains)
     };
     ThreadState make_state() const;
 

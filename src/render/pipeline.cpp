@@ -44,6 +44,8 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
             if (!quiet) std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
         report.phases_s.emplace_back("photon pass", pass.time_s);
         report.photons_emitted = pass.emitted;
+        report.photons_capped = pass.capped;
+        report.photons_capped_power = pass.capped_power;
         const PhotonMaps maps = build_trees(std::move(pass));
         const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
             {"global", &maps.global}, {"caustic", &maps.caustic}, {"volume", &maps.volume}};
@@ -71,6 +73,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     report.samples = stats.samples;
     report.rays = stats.rays;
     report.nonfinite = stats.nonfinite;
+    report.depth_capped = stats.capped;
     report.render_s = stats.render_s;
     report.mean = out.aov.beauty.mean();
     return out;

@@ -82,6 +82,8 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
         PhotonPassResult pass = trace_photons(*scene, plan, true);
         photon_s += pass.time_s;
         report.photons_emitted += pass.emitted;
+        report.photons_capped += pass.capped;
+        report.photons_capped_power += pass.capped_power;
         const PhotonMaps maps = build_trees(std::move(pass));
         const std::optional<PhotonMap>* built[] = {&maps.global, &maps.caustic, &maps.volume};
         for (int m = 0; m < 3; ++m)
@@ -111,6 +113,7 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
         report.samples += stats.samples;
         report.rays += stats.rays;
         report.nonfinite += stats.nonfinite;
+        report.depth_capped += stats.capped;
         report.threads = stats.threads;
         accumulate(sum, aov);
 
@@ -147,6 +150,7 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
     report.height = result.aov.beauty.height;
     report.spp = desc.render.spp * n;
     report.render_s = render_s;
+    report.photons_capped_power /= n;  // the mean share over iterations
     report.mean = result.aov.beauty.mean();
     for (const ProgressiveIteration& it : result.iterations)
         report.iterations.push_back(

@@ -42,6 +42,10 @@ std::string report_text(const Report& r) {
     out << "rays: " << r.rays << " (" << fixed(per_second(r.rays, r.render_s), 0)
         << " per second)\n";
     out << "non-finite samples dropped: " << r.nonfinite << "\n";
+    out << "samples cut by render.max_depth: " << r.depth_capped << "\n";
+    if (r.photons_emitted > 0)
+        out << "photon paths cut by photons.max_bounces: " << r.photons_capped << " ("
+            << fixed(100.0 * r.photons_capped_power, 3) << "% of the emitted power)\n";
     for (const auto& it : r.iterations)
         out << "iteration " << it["index"] << ": " << fixed(it["elapsed_s"].get<double>(), 2)
             << " s, radii " << it["radii"].dump()
@@ -85,6 +89,10 @@ nlohmann::json report_json(const Report& r) {
             {"outputs", r.outputs},
             {"plan", r.plan},
             {"photons_emitted", r.photons_emitted},
+            {"capped",
+             {{"samples_by_max_depth", r.depth_capped},
+              {"photon_paths_by_max_bounces", r.photons_capped},
+              {"photon_power_fraction", r.photons_capped_power}}},
             {"maps", maps},
             {"mean", r.mean},
             {"iterations", r.iterations.is_null() ? nlohmann::json::array() : r.iterations},

@@ -32,9 +32,12 @@ struct Report {
     nlohmann::json plan;               ///< the same as JSON
     std::vector<MapReport> maps;       ///< photon maps built
     uint64_t photons_emitted = 0;
-    nlohmann::json iterations;  ///< progressive runs: one entry per iteration
-    double mean = 0.0;          ///< mean of the beauty image over pixels and channels
-    std::string reference;      ///< reference image, "" = none
+    uint64_t depth_capped = 0;          ///< camera samples cut by render.max_depth
+    uint64_t photons_capped = 0;        ///< photon paths cut by photons.max_bounces
+    double photons_capped_power = 0.0;  ///< their power / all emitted power
+    nlohmann::json iterations;          ///< progressive runs: one entry per iteration
+    double mean = 0.0;                  ///< mean of the beauty image over pixels and channels
+    std::string reference;              ///< reference image, "" = none
     double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference
 };
 

@@ -33,7 +33,7 @@ void render_tiles(int width, int height, const RenderSettings& settings, bool qu
     const int threads = thread_count(settings);
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-    std::atomic<uint64_t> rays{0}, nonfinite{0};
+    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0};
     Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
     const Timer timer;
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
@@ -45,6 +45,7 @@ void render_tiles(int width, int height, const RenderSettings& settings, bool qu
                 for (int x = x0; x < std::min(x0 + kTile, width); ++x)
                     dropped += shade_pixel(x, y, state);
             rays += state.rays;
+            capped += state.capped;
             nonfinite += dropped;
             progress.add();
         }
@@ -55,6 +56,7 @@ void render_tiles(int width, int height, const RenderSettings& settings, bool qu
         stats->samples = static_cast<uint64_t>(width) * height * settings.spp;
         stats->rays = rays.load();
         stats->nonfinite = nonfinite.load();
+        stats->capped = capped.load();
         stats->threads = threads;
     }
 }

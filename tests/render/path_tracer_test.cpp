@@ -205,6 +205,31 @@ TEST(SingleScattering, ThinSlabMatchesClosedForm) {
     EXPECT_NEAR(e.mean, expected, 3.0 * e.standard_error);
 }
 
+TEST(DepthCap, EveryPathInADeepConservativeMediumIsCountedAsCut) {
+    // Camera inside an albedo-1 cube with optical radius 1000: every path scatters again and
+    // again (roulette never ends an albedo-1 path), so with max_depth 3 each sample is cut;
+    // in vacuum none is.
+    for (const bool medium : {true, false}) {
+        SceneDesc d = base_desc();
+        LightDesc sky;
+        sky.type = LightType::Environment;
+        sky.radiance = Color(1.0f);
+        d.lights.push_back(sky);
+        if (medium)
+            d.media.push_back(
+                homogeneous(Color(1000.0f), Color(0.0f), 0.0f, Box3{Vec3(-10.0f), Vec3(10.0f)}));
+        d.camera.position = Vec3(0.0f);
+        d.camera.look_at = Vec3(0.0f, 0.0f, -1.0f);
+        d.camera.width = 8;
+        d.camera.height = 6;
+        d.render.max_depth = 3;
+        d.render.spp = 2;
+        RenderStats stats;
+        render_path(*load_scene(d), d.render, true, &stats);
+        EXPECT_EQ(stats.capped, medium ? stats.samples : 0u);
+    }
+}
+
 TEST(Determinism, OneAndTwoThreadsGiveIdenticalPixels) {
     const auto path = std::filesystem::temp_directory_path() / "fogmap_determinism.vdb";
     write_float_grid(

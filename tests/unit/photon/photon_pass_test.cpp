@@ -113,6 +113,50 @@ TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
     EXPECT_NE(r.warnings[0].find("global map: 0 of 100"), std::string::npos) << r.warnings[0];
 }
 
+TEST(PhotonPass, BounceCapCountsEveryPathItCuts) {
+    // A point light at the centre of an albedo-1 cube [-1, 1]^3 and max_bounces = 1: a photon is
+    // cut iff it scatters before leaving, with probability 1 − e^{−σ d(ω)} for the distance d(ω)
+    // to the cube's surface along its direction; averaged here over a Fibonacci sphere of
+    // directions. Albedo 1 keeps every cut photon's power at 1.
+    const float sigma = 0.7f;
+    SceneDesc d;
+    LightDesc point;
+    point.type = LightType::Point;
+    point.position = Vec3(0.0f);
+    point.intensity = Color(1.0f);
+    d.lights.push_back(point);
+    MediumDesc m = fog_box();
+    m.sigma_s = Color(sigma);
+    m.sigma_a = Color(0.0f);
+    d.media.push_back(m);
+    d.photons.global = d.photons.caustic = 0;
+    d.photons.volume = 1;  // never stored (max_bounces 1 ends paths first): runs to the cap
+    d.photons.max_bounces = 1;
+    d.photons.max_emitted = 200000;
+    d.march.method = FreePathMethod::Delta;
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), true);
+    ASSERT_EQ(r.emitted, 200000u);
+    double expected = 0.0;
+    const int n = 200000;
+    for (int i = 0; i < n; ++i) {
+        const double z = 1.0 - (2.0 * i + 1.0) / n, phi = i * 2.399963229728653;
+        const double s = std::sqrt(1.0 - z * z);
+        const double dir[3] = {s * std::cos(phi), s * std::sin(phi), z};
+        double t = 1e30;
+        for (double c : dir)
+            if (c != 0.0) t = std::min(t, 1.0 / std::abs(c));
+        expected += 1.0 - std::exp(-sigma * t);
+    }
+    expected /= n;
+    const double fraction = double(r.capped) / double(r.emitted);
+    const double se = std::sqrt(expected * (1.0 - expected) / double(r.emitted));
+    EXPECT_NEAR(fraction, expected, 4.0 * se);
+    EXPECT_NEAR(r.capped_power, fraction, 1e-6);  // each cut photon still carries its power 1
+    bool warned = false;
+    for (const std::string& w : r.warnings) warned |= w.find("photons.max_bounces = 1") == 0;
+    EXPECT_TRUE(warned);
+}
+
 // A sun at 45° over a mirror floor; the reflected beam lights a vertical diffuse wall (normal −x)
 // with irradiance E · cos(angle to the wall normal) = E sin θ. Only L S D photons reach the
 // caustic map, so its disc estimate (fixed radius, k unbounded) must converge to E sin θ.
