@@ -285,8 +285,9 @@ int run_bench(const BenchArgs& args) {
         d.render.threads = 0;
         char hash[17];
         std::snprintf(hash, sizeof hash, "%016llx",
-                      static_cast<unsigned long long>(
-                          fnv1a(to_json(d).dump() + "\n" + fs::absolute(base.base_dir).string())));
+                      static_cast<unsigned long long>(fnv1a(
+                          to_json(d).dump() + "\n" +
+                          fs::absolute(base.base_dir.empty() ? "." : base.base_dir).string())));
         d.render.threads = base.render.threads;
         const fs::path dir = fs::path(args.csv).parent_path();
         reference_file = (dir / (fs::path(args.scene).stem().string() + "_ref_path" +

@@ -141,7 +141,7 @@ struct VolumeGatherSettings {
     /// Single scattering along each marched camera segment: shadow rays per light at points
     /// drawn ∝ the march's weights (and, for point and spot lights, as many again by equi-angular
     /// sampling, combined by the balance heuristic); 0 = a shadow ray at every step.
-    int light_samples = 2;
+    int light_samples = 4;
 };
 
 /// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0

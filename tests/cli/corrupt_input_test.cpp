@@ -223,6 +223,9 @@ TEST_F(CorruptInput, VdbChunkSizeOverflowIsRejected) {
 }
 
 TEST_F(CorruptInput, VdbGridNameOfFourGigabytesIsRejected) {
+#ifdef __SANITIZE_ADDRESS__
+    GTEST_SKIP() << "the probe's address-space limit (and ulimit -v) cannot apply under ASan";
+#endif
     const std::string bytes = shared_vdb();
     if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
     // The first grid descriptor's name length (uint32 before "density") set to ~4 GB: OpenVDB

@@ -70,6 +70,16 @@ MeanEstimate single_scatter_mean(const SceneDesc& d, int n) {
     return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
 }
 
+// Every light_samples setting (0: a shadow ray at every step) within 4 standard errors.
+void expect_matches(const LightDesc& light, std::initializer_list<int> light_samples,
+                    double expected) {
+    for (int m : light_samples) {
+        const MeanEstimate e = single_scatter_mean(cube(light, m), m == 0 ? 4000 : 40000);
+        EXPECT_NEAR(e.mean, expected, 4.0 * e.standard_error + 1e-3 * expected)
+            << "light_samples " << m;
+    }
+}
+
 TEST(SingleScatterSampling, PointLightNextToTheRayMatchesQuadrature) {
     LightDesc light;
     light.type = LightType::Point;
@@ -80,11 +90,7 @@ TEST(SingleScatterSampling, PointLightNextToTheRayMatchesQuadrature) {
         const double r = glm::length(light.position - x);
         return 2.0 * std::exp(-kSigmaT * r) / (r * r);
     });
-    for (int m : {0, 1, 4}) {
-        const MeanEstimate e = single_scatter_mean(cube(light, m), m == 0 ? 4000 : 40000);
-        EXPECT_NEAR(e.mean, expected, 4.0 * e.standard_error + 1e-3 * expected)
-            << "light_samples " << m;
-    }
+    expect_matches(light, {0, 1, 4}, expected);
 }
 
 TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
@@ -101,11 +107,7 @@ TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
         const LightSample s = sample_light(l, x, Vec2(0.5f));
         return s.Li.x * std::exp(-kSigmaT * s.dist);
     });
-    for (int m : {0, 2}) {
-        const MeanEstimate e = single_scatter_mean(cube(light, m), m == 0 ? 4000 : 40000);
-        EXPECT_NEAR(e.mean, expected, 4.0 * e.standard_error + 1e-3 * expected)
-            << "light_samples " << m;
-    }
+    expect_matches(light, {0, 2}, expected);
 }
 
 TEST(SingleScatterSampling, QuadLightMatchesQuadrature) {
@@ -133,11 +135,7 @@ TEST(SingleScatterSampling, QuadLightMatchesQuadrature) {
         }
         return sum * l.area / (k * k);
     });
-    for (int m : {0, 2}) {
-        const MeanEstimate e = single_scatter_mean(cube(light, m), m == 0 ? 4000 : 40000);
-        EXPECT_NEAR(e.mean, expected, 4.0 * e.standard_error + 1e-3 * expected)
-            << "light_samples " << m;
-    }
+    expect_matches(light, {0, 2}, expected);
 }
 
 }  // namespace
