@@ -2,6 +2,7 @@
 // exit code 2, and an existing output file left untouched; a good render writes EXR + PNG whole.
 
 #include "core/image.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
@@ -17,46 +18,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-    int code = -1;
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+using test::RunResult;
+using test::slurp;
 
 class Cli : public ::testing::Test {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() /
-               ("fogmap_cli_" +
-                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
     fs::path write(const std::string& name, const std::string& text) {
-        const fs::path p = dir_ / name;
-        std::ofstream(p) << text;
-        return p;
+        return tmp_.write(name, text);
     }
 
-    RunResult run(const std::string& args) {
-        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd =
-            std::string(FOGMAP_BINARY) + " " + args + " >" + out.string() + " 2>" + err.string();
-        const int status = std::system(cmd.c_str());
-        RunResult r;
-        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.out = slurp(out);
-        r.err = slurp(err);
-        return r;
-    }
+    RunResult run(const std::string& args) { return test::run_fogmap(args, dir_); }
 
     // A small valid scene; `extra` is spliced into the top-level object.
     std::string scene(const std::string& extra = "") {
@@ -70,7 +41,8 @@ protected:
                extra + "\n}\n";
     }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_cli"};
+    const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(Cli, MalformedJsonReportsLineAndColumn) {

@@ -6,6 +6,8 @@
 // are made by the test (from ../shared/volumes or with OpenVDB) in a temp folder (never
 // committed).
 
+#include "test_support.h"
+
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 
@@ -25,47 +27,20 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-    int code = -1;
-    bool signaled = false;
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
-void spit(const fs::path& p, const std::string& bytes) {
-    std::ofstream(p, std::ios::binary) << bytes;
-}
+using test::RunResult;
+using test::slurp;
+using test::spit;
 
 class CorruptInput : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir_ = fs::temp_directory_path() /
-               ("fogmap_corrupt_" +
-                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        fs::remove_all(dir_);
         fs::create_directories(dir_ / "out");
         spit(dir_ / "out" / "old.exr", "an older render");
     }
-    void TearDown() override { fs::remove_all(dir_); }
 
     /// Runs fogmap with `args` through the shell, after `shell_prefix` (e.g. "ulimit -v N; ").
     RunResult run(const std::string& args, const std::string& shell_prefix = "") {
-        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd = shell_prefix + std::string(FOGMAP_BINARY) + " " + args + " >" +
-                                out.string() + " 2>" + err.string();
-        const int status = std::system(cmd.c_str());
-        RunResult r;
-        r.signaled = WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) > 128);
-        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.out = slurp(out);
-        r.err = slurp(err);
-        return r;
+        return test::run_fogmap(args, dir_, shell_prefix);
     }
 
     /// Renders `scene` to out/old.exr (an existing file) and expects the rejection contract.
@@ -115,7 +90,8 @@ protected:
         return fs::exists(p) ? slurp(p) : std::string();
     }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_corrupt"};
+    const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(CorruptInput, TruncatedVdbNamesTheFile) {

@@ -8,6 +8,7 @@
 #include "render/svg_plot.h"
 
 #include "core/image.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -143,26 +144,12 @@ TEST(SvgPlot, FrontierIsAPolylineAndTheDocumentIsClosed) {
 
 // ---- The fogmap binary on a tiny scene ---------------------------------------------------------
 
-struct RunResult {
-    int code = -1;
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+using test::RunResult;
+using test::slurp;
 
 class BenchCommand : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir_ = fs::temp_directory_path() /
-               ("fogmap_bench_" +
-                std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
         // 8x6 pixels, a sun over a ground quad in a homogeneous fog box; a few hundred photons.
         std::ofstream(dir_ / "tiny.json") << R"({
   "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
@@ -178,19 +165,9 @@ protected:
   "render": {"spp": 2, "max_depth": 8, "threads": 1}
 })";
     }
-    void TearDown() override { fs::remove_all(dir_); }
 
     RunResult run(const std::string& args) {
-        const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
-        const std::string cmd = std::string(FOGMAP_BINARY) + " bench " +
-                                (dir_ / "tiny.json").string() + " " + args + " >" + out.string() +
-                                " 2>" + err.string();
-        const int status = std::system(cmd.c_str());
-        RunResult r;
-        r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.out = slurp(out);
-        r.err = slurp(err);
-        return r;
+        return test::run_fogmap("bench " + (dir_ / "tiny.json").string() + " " + args, dir_);
     }
 
     std::string outputs() const {
@@ -198,7 +175,8 @@ protected:
                (dir_ / "out" / "b.svg").string();
     }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_bench"};
+    const fs::path dir_ = tmp_.path();
 };
 
 TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
@@ -281,12 +259,11 @@ TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
 TEST_F(BenchCommand, SceneNamedWithoutAFolderCachesItsReference) {
     // `fogmap bench tiny.json` from the scene's own folder: the reference's cache name hashes
     // the absolute folder, which must not fail for the empty folder of a bare file name.
-    const std::string cmd = "cd " + dir_.string() + " && " + std::string(FOGMAP_BINARY) +
-                            " bench tiny.json --reference-spp 4 --sweep volume.k=5 --path-spp none"
-                            " --csv out/c.csv --plot out/c.svg -q >/dev/null 2>&1";
-    const int status = std::system(cmd.c_str());
-    ASSERT_TRUE(WIFEXITED(status));
-    EXPECT_EQ(WEXITSTATUS(status), 0);
+    const RunResult r = test::run_fogmap(
+        "bench tiny.json --reference-spp 4 --sweep volume.k=5 --path-spp none --csv out/c.csv "
+        "--plot out/c.svg -q",
+        dir_, "cd " + dir_.string() + " && ");
+    EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(dir_ / "out" / "c.csv"));
 }
 

@@ -1,6 +1,7 @@
 #include "scene/scene_desc_json.h"
 
 #include "core/error.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -17,16 +18,7 @@ namespace {
 
 using nlohmann::json;
 
-/// Runs f, expects an InputError, returns it (a failed expectation otherwise).
-InputError catch_input_error(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e;
-    }
-    ADD_FAILURE() << "expected an InputError";
-    return InputError("", "", "");
-}
+using test::catch_input_error;
 
 InputError parse_error(const json& doc) {
     return catch_input_error([&] { scene_desc_from_json(doc, "scene.json"); });
@@ -37,24 +29,9 @@ InputError validate_error(const json& doc) {
 }
 
 /// A temp folder per test, removed at the end.
-class TempDir {
-public:
-    TempDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = std::filesystem::temp_directory_path() /
-                ("fogmap_scene_" + std::to_string(::getpid()) + "_" + info->name());
-        std::filesystem::create_directories(path_);
-    }
-    ~TempDir() { std::filesystem::remove_all(path_); }
-    std::string write(const std::string& name, const std::string& text) const {
-        const std::string p = (path_ / name).string();
-        std::ofstream(p, std::ios::binary) << text;
-        return p;
-    }
-    std::string path() const { return path_.string(); }
-
-private:
-    std::filesystem::path path_;
+struct TempDir : test::TempDir {
+    TempDir() : test::TempDir("fogmap_scene") {}
+    std::string path() const { return test::TempDir::path().string(); }
 };
 
 /// A scene that uses every light, material, shape and medium type, with non-default values.

@@ -1,6 +1,7 @@
 #include "surface/mesh.h"
 
 #include "core/error.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
@@ -18,35 +19,12 @@
 namespace fogmap {
 namespace {
 
-InputError catch_input_error(const std::function<void()>& f) {
-    try {
-        f();
-    } catch (const InputError& e) {
-        return e;
-    }
-    ADD_FAILURE() << "expected an InputError";
-    return InputError("", "", "");
-}
+using test::catch_input_error;
 
 /// A temp folder per test, removed at the end.
-class TempDir {
-public:
-    TempDir() {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = std::filesystem::temp_directory_path() /
-                ("fogmap_mesh_" + std::to_string(::getpid()) + "_" + info->name());
-        std::filesystem::create_directories(path_);
-    }
-    ~TempDir() { std::filesystem::remove_all(path_); }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        const std::string p = (path_ / name).string();
-        std::ofstream(p, std::ios::binary) << bytes;
-        return p;
-    }
-    std::string path() const { return path_.string(); }
-
-private:
-    std::filesystem::path path_;
+struct TempDir : test::TempDir {
+    TempDir() : test::TempDir("fogmap_mesh") {}
+    std::string path() const { return test::TempDir::path().string(); }
 };
 
 /// Signed volume enclosed by a closed, consistently wound mesh: by the divergence theorem, the

@@ -1,0 +1,94 @@
+#pragma once
+// What several test programs need: a temp folder per test, whole-file reads and writes, the
+// fogmap binary run through the shell with its output captured, and the InputError a call must
+// throw.
+
+#include "core/error.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+
+namespace fogmap::test {
+
+namespace fs = std::filesystem;
+
+inline std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+inline void spit(const fs::path& p, const std::string& bytes) {
+    std::ofstream(p, std::ios::binary) << bytes;
+}
+
+/// A fresh folder for the running test (named after the prefix, the process and the test),
+/// removed at the end.
+class TempDir {
+public:
+    explicit TempDir(const std::string& prefix) {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        path_ = fs::temp_directory_path() /
+                (prefix + "_" + std::to_string(::getpid()) + "_" + info->name());
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~TempDir() { fs::remove_all(path_); }
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+
+    const fs::path& path() const { return path_; }
+    /// Writes `bytes` to the file `name` in the folder; returns its path.
+    std::string write(const std::string& name, const std::string& bytes) const {
+        const fs::path p = path_ / name;
+        spit(p, bytes);
+        return p.string();
+    }
+
+private:
+    fs::path path_;
+};
+
+struct RunResult {
+    int code = -1;          ///< exit code; -1 when killed by a signal
+    bool signaled = false;  ///< killed by a signal (directly or as the shell reports it, > 128)
+    std::string out, err;
+};
+
+/// Runs `shell_prefix <fogmap> args` through the shell (e.g. prefix "ulimit -v N; " or
+/// "cd DIR && "), stdout and stderr captured in files inside `dir`.
+inline RunResult run_fogmap(const std::string& args, const fs::path& dir,
+                            const std::string& shell_prefix = "") {
+    const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+    const std::string cmd = shell_prefix + std::string(FOGMAP_BINARY) + " " + args + " >" +
+                            out.string() + " 2>" + err.string();
+    const int status = std::system(cmd.c_str());
+    RunResult r;
+    r.signaled = WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) > 128);
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+}
+
+/// Runs f, expects an InputError, returns it (a failed expectation otherwise).
+inline InputError catch_input_error(const std::function<void()>& f) {
+    try {
+        f();
+    } catch (const InputError& e) {
+        return e;
+    }
+    ADD_FAILURE() << "expected an InputError";
+    return InputError("", "", "");
+}
+
+}  // namespace fogmap::test
