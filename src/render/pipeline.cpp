@@ -26,6 +26,17 @@ LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report) {
     return loaded;
 }
 
+std::vector<MapReport> map_reports(const PhotonMaps& maps) {
+    std::vector<MapReport> out;
+    const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
+        {"global", &maps.global}, {"caustic", &maps.caustic}, {"volume", &maps.volume}};
+    for (const auto& [name, map] : named)
+        if (*map)
+            out.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
+                           (*map)->build_s});
+    return out;
+}
+
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference) {
     PipelineResult out;
     if (desc.progressive.enabled() && desc.render.integrator == Integrator::Photon) {
@@ -47,14 +58,9 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
         report.photons_capped = pass.capped;
         report.photons_capped_power = pass.capped_power;
         const PhotonMaps maps = build_trees(std::move(pass));
-        const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
-            {"global", &maps.global}, {"caustic", &maps.caustic}, {"volume", &maps.volume}};
-        for (const auto& [name, map] : named) {
-            if (!*map) continue;
-            report.maps.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
-                                   (*map)->build_s});
-            report.phases_s.emplace_back(std::string("build ") + name, (*map)->build_s);
-        }
+        report.maps = map_reports(maps);
+        for (const MapReport& m : report.maps)
+            report.phases_s.emplace_back("build " + m.name, m.build_s);
         double precompute_s = 0.0;
         out.aov = render_photon(*scene, maps, desc.render, quiet, &stats, &precompute_s);
         if (precompute_s > 0.0) report.phases_s.emplace_back("precompute", precompute_s);

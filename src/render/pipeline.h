@@ -29,6 +29,9 @@ struct LoadedScene {
 /// plan and its "load" phase. Throws InputError for unreadable scene data.
 LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report);
 
+/// One report entry per map built (global, caustic, volume order).
+std::vector<MapReport> map_reports(const PhotonMaps& maps);
+
 /// Runs `desc` with desc.render.threads threads — progressive iterations (render/progressive.h)
 /// when desc.progressive asks for them and the integrator is the photon map. Progress and
 /// warnings on stderr unless quiet; `reference` (optional) only feeds the per-iteration error of

@@ -14,6 +14,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
 
 namespace fogmap {
 
@@ -76,25 +78,22 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
     GatherOverride gather{gather_radii(*scene), true};
     AovImages sum;
     double photon_s = 0.0, render_s = 0.0;
-    double build_s[3] = {0.0, 0.0, 0.0};  // global, caustic, volume
+    std::map<std::string, double> build_s{{"global", 0.0}, {"caustic", 0.0}, {"volume", 0.0}};
     for (int i = 1;; ++i) {
         scene->desc.render.seed = mix64(desc.render.seed * 0x9E3779B97F4A7C15ull + i);
         PhotonPassResult pass = trace_photons(*scene, plan, true);
+        if (i == 1 && !quiet)
+            for (const std::string& w : pass.warnings)
+                std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
         photon_s += pass.time_s;
         report.photons_emitted += pass.emitted;
         report.photons_capped += pass.capped;
         report.photons_capped_power += pass.capped_power;
         const PhotonMaps maps = build_trees(std::move(pass));
-        const std::optional<PhotonMap>* built[] = {&maps.global, &maps.caustic, &maps.volume};
-        for (int m = 0; m < 3; ++m)
-            if (*built[m]) build_s[m] += (*built[m])->build_s;
+        const std::vector<MapReport> built = map_reports(maps);
+        for (const MapReport& m : built) build_s[m.name] += m.build_s;
         if (i == 1) {
-            // The report's maps are one iteration's: the memory held at any time.
-            const char* names[] = {"global", "caustic", "volume"};
-            for (int m = 0; m < 3; ++m)
-                if (*built[m])
-                    report.maps.push_back({names[m], (*built[m])->tree.size(), (*built[m])->emitted,
-                                           (*built[m])->tree.bytes(), (*built[m])->build_s});
+            report.maps = built;  // one iteration's maps: the memory held at any time
             // Radii the scene leaves at 0 start from the first maps' photon density.
             if (maps.global && desc.global.radius == 0.0f)
                 gather.radii.global =
@@ -121,8 +120,7 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
         it.index = i;
         it.elapsed_s = timer.seconds();
         it.radii = gather.radii;
-        for (const auto* map : built)
-            if (*map) it.photon_bytes += (*map)->tree.bytes();
+        for (const MapReport& m : built) it.photon_bytes += m.bytes;
         if (reference) it.rel_mse = image_error(scaled(sum, 1.0f / i).beauty, *reference).rel_mse;
         result.iterations.push_back(it);
         if (!quiet)
@@ -140,9 +138,8 @@ ProgressiveResult run_progressive(const SceneDesc& desc, const Image* reference,
     const int n = static_cast<int>(result.iterations.size());
     result.aov = scaled(sum, 1.0f / n);
     report.phases_s.emplace_back("photon pass", photon_s);
-    report.phases_s.emplace_back("build global", build_s[0]);
-    report.phases_s.emplace_back("build caustic", build_s[1]);
-    report.phases_s.emplace_back("build volume", build_s[2]);
+    for (const char* name : {"global", "caustic", "volume"})
+        report.phases_s.emplace_back(std::string("build ") + name, build_s[name]);
     report.phases_s.emplace_back("render", render_s);
     report.scene = desc.path;
     report.settings = settings_json(desc);
