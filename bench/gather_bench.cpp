@@ -94,17 +94,6 @@ const Fixture& fixture(const std::string& vdb) {
     return *g_fixture;
 }
 
-// As in photon_integrator.cpp: ∫₀^h e^{−σ s} ds per channel, and e^{−τ}.
-Color step_weight(const Color& sigma_t, float h) {
-    Color w;
-    for (int c = 0; c < 3; ++c)
-        w[c] = sigma_t[c] * h > 1e-6f ? -std::expm1(-sigma_t[c] * h) / sigma_t[c] : h;
-    return w;
-}
-Color exp_neg(const Color& tau) {
-    return Color(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
-}
-
 struct LitStep {
     Vec3 x;
     Color weight, sigma_s;

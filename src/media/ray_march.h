@@ -29,6 +29,20 @@ struct MarchStep {
     Color sigma_t{0.0f};         ///< extinction coefficient at x, all media (1/world unit)
 };
 
+/// e^{−τ} per channel: transmittance of optical depth τ.
+inline Color exp_neg(const Color& tau) {
+    return Color(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
+}
+
+/// ∫₀^h e^{−σ s} ds per channel: the weight of a march step of length h whose σ_t is held
+/// constant (h itself where σ_t h is too small for the quotient).
+inline Color step_weight(const Color& sigma_t, float h) {
+    Color w;
+    for (int c = 0; c < 3; ++c)
+        w[c] = sigma_t[c] * h > 1e-6f ? -std::expm1(-sigma_t[c] * h) / sigma_t[c] : h;
+    return w;
+}
+
 class RayMarcher {
 public:
     /// Steps per medium from the settings; homogeneous media without step_world use their

@@ -19,18 +19,6 @@ namespace {
 
 constexpr float kGatherNormalCos = 0.9f;  // irradiance points count only on like-facing surfaces
 
-// ∫₀^h e^{−σ s} ds per channel: the weight of a step whose σ is held constant.
-Color step_weight(const Color& sigma_t, float h) {
-    Color w;
-    for (int c = 0; c < 3; ++c)
-        w[c] = sigma_t[c] * h > 1e-6f ? -std::expm1(-sigma_t[c] * h) / sigma_t[c] : h;
-    return w;
-}
-
-Color exp_neg(const Color& tau) {
-    return Color(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
-}
-
 }  // namespace
 
 // Irradiance at every fourth global photon, with the photon's surface normal (Christensen 1999).
