@@ -171,7 +171,7 @@ struct Gatherer {
             case Estimate::Beam: {
                 if (depth.empty()) break;
                 f.beam->for_each_hit(ray, depth.front().t0, depth.back().t1,
-                                     [&](const Photon& p, float t, float kernel) {
+                                     [&](const BeamTree::Record& p, float t, float kernel) {
                                          ++queries;
                                          const auto it = std::upper_bound(
                                              depth.begin(), depth.end(), t,
@@ -179,8 +179,8 @@ struct Gatherer {
                                          if (it == depth.end()) return;
                                          const Color tau_t =
                                              it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
-                                         sum += hg_phase(glm::dot(p.direction(), -ray.d), g) *
-                                                kernel * exp_neg(tau_t) * p.power();
+                                         sum += hg_phase(glm::dot(p.direction, -ray.d), g) *
+                                                kernel * exp_neg(tau_t) * p.power;
                                      });
                 sum *= map.photon_power;
                 break;

@@ -155,6 +155,13 @@ RayMarcher::RayMarcher(const std::vector<Medium>& media, const MarchSettings& se
 
 RayMarcher::FreePath RayMarcher::sample_free_path(std::vector<Medium::Sampler>& samplers,
                                                   const Ray& ray, float t_max, Rng& rng) const {
+    bool meets = false;
+    for (const Medium& m : *media_) {
+        float t_enter, t_exit;
+        meets = meets || (!m.world_bounds().empty() &&
+                          intersect_box(m.world_bounds(), ray, 0.0f, t_max, &t_enter, &t_exit));
+    }
+    if (!meets) return FreePath{};
     const double target = -std::log1p(-rng.uniform_double());
     const float jitter = rng.uniform();
     // Marching stops where the ray first enters a stiff medium; delta tracking goes on from there.

@@ -67,6 +67,7 @@ public:
     /// where the ray enters a stiff medium on, by delta tracking through all media (the rest of
     /// the free path is independent of the part marched, so joining the two is exact). A
     /// collision found by delta tracking reports the σ_s, σ_t of the medium that collided.
+    /// A ray that meets no medium's bounds draws nothing from rng.
     FreePath sample_free_path(std::vector<Medium::Sampler>& samplers, const Ray& ray, float t_max,
                               Rng& rng) const;
 
