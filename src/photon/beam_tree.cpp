@@ -37,11 +37,7 @@ BeamTree::BeamTree(const PhotonMap& map, int k, float r_max) {
         }
     });
     double sum = 0.0;
-    for (const Record& rec : records_) {
-        const float r = std::sqrt(rec.r2);
-        sum += r;
-        max_radius_ = std::max(max_radius_, r);
-    }
+    for (const Record& rec : records_) sum += std::sqrt(rec.r2);
     mean_radius_ = n ? static_cast<float>(sum / n) : 0.0f;
     if (n > 0) {
         nodes_.reserve(2 * (n / kBeamLeaf + 1));

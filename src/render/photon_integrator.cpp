@@ -302,44 +302,21 @@ Color PhotonIntegrator::multiple_scattering(const Vec3& dir, Rng& rng, ThreadSta
 }
 
 // Σ_p p(θ_p) ΔΦ_p T(0, t_p) K(d_p) over the photons whose spheres the marched segment crosses,
-// T from the march's own optical-depth table (the heterogeneous medium itself). Photons whose
-// closest point lies beyond the step where T falls below kBeamTail count only in a Russian
-// roulette (probability kBeamTailKeep, weight its inverse): a dense plume's far side costs a
-// quarter of its photon visits and nothing is dropped.
-Color PhotonIntegrator::beam_estimate(const Ray& ray, Rng& rng, ThreadState& ts) const {
-    constexpr float kBeamTail = 1e-3f, kBeamTailKeep = 0.25f;
+// T from the march's own optical-depth table (the heterogeneous medium itself).
+Color PhotonIntegrator::beam_estimate(const Ray& ray, ThreadState& ts) const {
     const std::vector<MarchedStep>& depth = ts.steps;
     const float t0 = depth.front().t0, t1 = depth.back().t1;
     const bool one_medium = ts.media.size() == 1;
-    float cut = t1;
-    for (const MarchedStep& st : depth)
-        if (max_component(exp_neg(st.tau0 + st.sigma_t * (st.t1 - st.t0))) < kBeamTail) {
-            cut = st.t1;
-            break;
-        }
     Color sum(0.0f);
-    // Visits the photons whose closest point t (clamped into [t0, t1]) is in [from, to): a
-    // sphere of radius r meets the ray only within r of t, so the query range is widened by r.
-    auto gather = [&](float from, float to, float weight) {
-        const float r = beam_->max_radius();
-        beam_->for_each_hit(
-            ray, std::max(t0, from - r), std::min(t1, to + r),
-            [&](const BeamTree::Record& p, float t, float kernel) {
-                if (t < from || (t >= to && to < t1)) return;
-                // The step holding t (or the gap before it: τ stays at the previous step's end).
-                const auto it =
-                    std::upper_bound(depth.begin(), depth.end(), t,
-                                     [](float v, const MarchedStep& s) { return v < s.t1; });
-                if (it == depth.end()) return;
-                const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
-                const float g =
-                    one_medium ? ts.media[0].medium().params().g : phase_g(ts, p.position);
-                sum += weight * hg_phase(glm::dot(p.direction, -ray.d), g) * kernel *
-                       exp_neg(tau) * p.power;
-            });
-    };
-    gather(t0, cut, 1.0f);
-    if (cut < t1 && rng.uniform() < kBeamTailKeep) gather(cut, t1, 1.0f / kBeamTailKeep);
+    beam_->for_each_hit(ray, t0, t1, [&](const BeamTree::Record& p, float t, float kernel) {
+        // The step holding t (or the gap before it: τ stays at the previous step's end).
+        const auto it = std::upper_bound(depth.begin(), depth.end(), t,
+                                         [](float v, const MarchedStep& s) { return v < s.t1; });
+        if (it == depth.end()) return;
+        const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
+        const float g = one_medium ? ts.media[0].medium().params().g : phase_g(ts, p.position);
+        sum += hg_phase(glm::dot(p.direction, -ray.d), g) * kernel * exp_neg(tau) * p.power;
+    });
     return sum * maps_.volume->photon_power;
 }
 
@@ -371,7 +348,7 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
             if (!ts.steps.empty()) {
                 out.volume_single += single_scattering(ray, beta, rng, ts);
                 if (beam_)
-                    out.volume_multiple += beta * beam_estimate(ray, rng, ts);
+                    out.volume_multiple += beta * beam_estimate(ray, ts);
                 else if (maps_.volume)
                     out.volume_multiple += multiple_scattering(ray.d, rng, ts);
             }

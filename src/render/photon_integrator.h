@@ -87,7 +87,7 @@ private:
                         ThreadState& ts) const;
     Color single_scattering(const Ray& ray, const Color& beta, Rng& rng, ThreadState& ts) const;
     Color multiple_scattering(const Vec3& dir, Rng& rng, ThreadState& ts) const;
-    Color beam_estimate(const Ray& ray, Rng& rng, ThreadState& ts) const;
+    Color beam_estimate(const Ray& ray, ThreadState& ts) const;
     Color shadow_transmittance(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;
     Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;
