@@ -1,7 +1,7 @@
 #pragma once
 // Beam radiance estimate (Jarosz, Zwicker, Jensen 2008) over a volume photon map: every photon
-// gets a radius (the distance to its k-th neighbour, at most a maximum; one query serves a run of
-// 8 photons that are neighbours in the map's in-order layout), a bounding-volume
+// gets a radius (the distance to its k-th neighbour, at most a maximum; one query serves the
+// photons of a hierarchy leaf that lie within its radius), a bounding-volume
 // hierarchy over the photon spheres is built, and one query per camera-ray segment visits every
 // photon whose sphere the segment crosses. The 2D kernel is the sphere estimate's kernel
 // integrated along the ray, K(d) = 3 sqrt(r² − d²) / (2π r³), so the beam estimate is the line
@@ -19,9 +19,9 @@ namespace fogmap {
 
 class BeamTree {
 public:
-    /// Radii: distance to the k-th nearest photon (of the first photon of each run of 8 in the
-    /// map's layout, shared by the run), clamped to (0, r_max]; with k <= 0, r_max for every
-    /// photon. Built in parallel.
+    /// Radii: distance to the k-th nearest photon, clamped to (0, r_max] (the leaf's first
+    /// photon's, for the photons of its leaf within that distance); with k <= 0, r_max for every
+    /// photon. Radii in parallel.
     BeamTree(const PhotonMap& map, int k, float r_max);
 
     /// A photon as queries read it.
