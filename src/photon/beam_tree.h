@@ -41,6 +41,8 @@ public:
 
     size_t bytes() const;
     float mean_radius() const { return mean_radius_; }
+    /// The photons with their radii, grouped by leaf.
+    const std::vector<Record>& records() const { return records_; }
 
 private:
     struct Node {
