@@ -205,10 +205,12 @@ Image render_path(const Scene& scene, const RenderSettings& settings, bool quiet
             Color sum(0.0f);
             uint64_t dropped = 0;
             const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+            const uint64_t jitter_key = mix64(mix64(settings.seed + 0x9E3779B97F4A7C15ull) ^ ~pixel);
             for (int s = 0; s < settings.spp; ++s) {
                 Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
-                const float jx = rng.uniform(), jy = rng.uniform();
-                const Color c = tracer.radiance(camera.generate(x + jx, y + jy), rng, ts);
+                const Vec2 j = pixel_jitter(s, settings.spp, jitter_key,
+                                            Vec2(rng.uniform(), rng.uniform()));
+                const Color c = tracer.radiance(camera.generate(x + j.x, y + j.y), rng, ts);
                 if (is_finite(c))
                     sum += c;
                 else

@@ -1,8 +1,9 @@
 #pragma once
 // The render pass's parallel loop, shared by every integrator: 16x16 tiles over TBB with
 // settings.threads threads (0 = all cores), one thread state per tile, a progress bar, and the
-// stats (wall time, samples, rays, dropped samples). Pixels depend only on their own indices, so
-// the image is the same for any thread count.
+// stats (wall time, samples, rays, dropped samples); and the sub-pixel sample positions both
+// integrators use (N-rooks). Pixels depend only on their own indices, so the image is the same
+// for any thread count.
 
 #include "core/progress.h"
 #include "core/timer.h"
@@ -17,6 +18,33 @@
 #include <atomic>
 
 namespace fogmap {
+
+/// A bijection of [0, n) chosen by key (cycle-walking a bijective hash of the next power of two).
+inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
+    uint32_t mask = 1;
+    while (mask < n - 1) mask = (mask << 1) | 1;
+    const uint32_t k1 = static_cast<uint32_t>(key) | 1u, k2 = static_cast<uint32_t>(key >> 32);
+    do {  // each step is a bijection of [0, mask]
+        i = (i * k1 + k2) & mask;
+        i ^= i >> 3;
+        i = (i * 0x2C1B3C6Du) & mask;
+        i ^= (i >> 5) ^ (i >> 11);
+        i = (i + (k2 >> 7)) & mask;
+    } while (i >= n);
+    return i;
+}
+
+/// Sub-pixel position of sample s of spp in a pixel, from two uniforms u: N-rooks (Latin
+/// hypercube) sampling — each of the spp columns and each of the spp rows of the pixel holds
+/// exactly one sample, the rows shuffled per pixel by key — so edges cost less noise than with
+/// independent positions; each sample stays uniform over the pixel when s is uniform.
+inline Vec2 pixel_jitter(int s, int spp, uint64_t key, Vec2 u) {
+    const uint32_t n = static_cast<uint32_t>(spp);
+    const float inv = 1.0f / static_cast<float>(n);
+    const uint32_t row = permute(static_cast<uint32_t>(s), n, key);
+    return Vec2(std::min((static_cast<float>(s) + u.x) * inv, 0x1.fffffep-1f),
+                std::min((static_cast<float>(row) + u.y) * inv, 0x1.fffffep-1f));
+}
 
 /// Worker threads of a run: settings.threads, or every core when 0.
 inline int thread_count(const RenderSettings& settings) {

@@ -1,8 +1,11 @@
 // Image agreement between the photon-map renderer and the path tracer on the bundled scenes:
 // relative MSE against a path-traced reference falls as the photon count grows (3 counts, with
 // k growing as sqrt(N) so that both the variance ~1/k and the radius ~(k/N)^(1/3) shrink — the
-// usual consistent choice), and at the largest count the image mean is within 2% of the
-// reference's. The default run uses small images; the `heavy` variants use larger ones.
+// usual consistent choice), and at the largest count the image mean is within a tolerance of the
+// reference's: 2%, except for the small fog image, whose path-traced reference mean is itself
+// uncertain by about 4% (1024 spp at 64x36 of a spot light in fog: the means of seeds 1, 2 and 3
+// differ by up to 5%), so 6% there. The default run uses small images; the `heavy` variants use
+// larger ones.
 
 #include "render/metrics.h"
 #include "render/pipeline.h"
@@ -22,6 +25,7 @@ struct AgreementCase {
     int width, height;
     int reference_spp, photon_spp;
     uint64_t volume_photons;  ///< smallest count; then x4 and x16
+    double mean_tolerance = 0.02;  ///< relative, image mean against the reference's
 };
 
 void check_agreement(const AgreementCase& c) {
@@ -52,7 +56,7 @@ void check_agreement(const AgreementCase& c) {
         std::printf("%s: %llu volume photons, k %d: relMSE %.5f, bias %.5f\n", c.scene,
                     static_cast<unsigned long long>(n), k, e.rel_mse, e.bias);
     }
-    EXPECT_NEAR(mean, reference.mean(), 0.02 * reference.mean()) << c.scene;
+    EXPECT_NEAR(mean, reference.mean(), c.mean_tolerance * reference.mean()) << c.scene;
 }
 
 TEST(PhotonAgreement, SmokeConvergesToThePathTracer) {
@@ -60,7 +64,7 @@ TEST(PhotonAgreement, SmokeConvergesToThePathTracer) {
 }
 
 TEST(PhotonAgreement, FogConvergesToThePathTracer) {
-    check_agreement({"fog.json", 64, 36, 1024, 8, 12500});
+    check_agreement({"fog.json", 64, 36, 1024, 8, 12500, 0.06});
 }
 
 // The photon pipeline (photon pass, trees, render with every AOV) gives bit-identical images for

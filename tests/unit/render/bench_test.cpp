@@ -233,7 +233,7 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
 
 TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
     const RunResult r =
-        run("--reference-spp 16 --sweep progressive.iterations=0,1,8 --path-spp none" + outputs());
+        run("--reference-spp 256 --sweep progressive.iterations=0,1,8 --path-spp none" + outputs());
     ASSERT_EQ(r.code, 0) << r.err;
     const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
     ASSERT_EQ(lines.size(), 5u);  // header, 3 runs, ""
