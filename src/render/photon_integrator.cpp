@@ -420,7 +420,7 @@ AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const Render
             PhotonIntegrator::Sample sum;
             uint64_t dropped = 0;
             const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
-            const uint64_t jitter_key = mix64(mix64(settings.seed + 0x9E3779B97F4A7C15ull) ^ ~pixel);
+            const uint64_t jitter_key = pixel_key(settings.seed, pixel);
             for (int s = 0; s < settings.spp; ++s) {
                 Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
                 const Vec2 j = pixel_jitter(s, settings.spp, jitter_key,

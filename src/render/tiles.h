@@ -6,6 +6,7 @@
 // for any thread count.
 
 #include "core/progress.h"
+#include "core/rng.h"
 #include "core/timer.h"
 #include "render/path_tracer.h"
 
@@ -21,6 +22,7 @@ namespace fogmap {
 
 /// A bijection of [0, n) chosen by key (cycle-walking a bijective hash of the next power of two).
 inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
+    if (n <= 1) return 0;
     uint32_t mask = 1;
     while (mask < n - 1) mask = (mask << 1) | 1;
     const uint32_t k1 = static_cast<uint32_t>(key) | 1u, k2 = static_cast<uint32_t>(key >> 32);
@@ -32,6 +34,11 @@ inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
         i = (i + (k2 >> 7)) & mask;
     } while (i >= n);
     return i;
+}
+
+/// The key of a pixel's row shuffle: its own stream, apart from the pixel's sample streams.
+inline uint64_t pixel_key(uint64_t seed, uint64_t pixel) {
+    return mix64(mix64(seed + 0x9E3779B97F4A7C15ull) ^ ~pixel);
 }
 
 /// Sub-pixel position of sample s of spp in a pixel, from two uniforms u: N-rooks (Latin
