@@ -51,10 +51,6 @@ BeamTree::BeamTree(const PhotonMap& map, int k, float r_max) {
             }
         }
     });
-    double sum = 0.0;
-    for (const Record& rec : records_) sum += std::sqrt(rec.r2);
-    mean_radius_ = static_cast<float>(sum / n);
-
     // Bounds of the spheres, bottom up (children come after their parent).
     for (size_t i = nodes_.size(); i-- > 0;) {
         Node& node = nodes_[i];

@@ -40,7 +40,6 @@ public:
     void for_each_hit(const Ray& ray, float t0, float t1, F&& f) const;
 
     size_t bytes() const;
-    float mean_radius() const { return mean_radius_; }
     /// The photons with their radii, grouped by leaf.
     const std::vector<Record>& records() const { return records_; }
 
@@ -54,7 +53,6 @@ private:
 
     std::vector<Record> records_;  ///< grouped by leaf
     std::vector<Node> nodes_;
-    float mean_radius_ = 0.0f;
 };
 
 template <class F>
