@@ -9,7 +9,7 @@ action="${1:-render}"
 packages=(cmake g++ make pkg-config ccache
   libopenvdb-dev libboost-iostreams-dev libblosc-dev libembree-dev libopenexr-dev libglm-dev
   libtbb-dev nlohmann-json3-dev libcli11-dev libpng-dev libtinyobjloader-dev
-  googletest libgtest-dev libbenchmark-dev libnanoflann-dev)
+  googletest libgtest-dev libbenchmark-dev libnanoflann-dev libnanovdb-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
