@@ -36,8 +36,12 @@ inline constexpr float kTauPerStep = 0.2f;
 /// σ_t per unit density = kTauPerStep / (max density × voxel edge), albedo 0.95, g = 0.5;
 /// photons: volume map only, `volume_photons` stored or `max_emitted` emitted (0 = 100 × the
 /// budget). Throws InputError if the file does not load.
-inline std::unique_ptr<Scene> vdb_scene(const std::string& vdb, uint64_t volume_photons,
-                                        uint64_t max_emitted = 0) {
+struct VdbScene {
+    SceneDesc desc;
+    std::unique_ptr<Scene> scene;
+};
+inline VdbScene vdb_scene(const std::string& vdb, uint64_t volume_photons,
+                          uint64_t max_emitted = 0) {
     SceneDesc d;
     LightDesc sun;
     sun.type = LightType::Sun;
@@ -62,7 +66,8 @@ inline std::unique_ptr<Scene> vdb_scene(const std::string& vdb, uint64_t volume_
     d.photons.volume = volume_photons;
     d.photons.max_emitted = max_emitted;
     d.render.seed = 1;
-    return load_scene(d);
+    std::unique_ptr<Scene> scene = load_scene(d);
+    return {std::move(d), std::move(scene)};
 }
 
 /// Where the raw-sampler rate is measured: march sample points (1-voxel steps, jittered) of

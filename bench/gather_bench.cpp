@@ -59,7 +59,8 @@ const char* estimate_name(Estimate e) {
 /// One scene with its photon map, beam tree and camera rays (only the current one is kept).
 struct Fixture {
     std::string vdb;
-    std::unique_ptr<Scene> scene;
+    VdbScene vs;
+    const Scene* scene = nullptr;
     PhotonMaps maps;
     std::unique_ptr<BeamTree> beam;
     std::unique_ptr<RayMarcher> marcher;
@@ -75,13 +76,16 @@ const Fixture& fixture(const std::string& vdb) {
     g_fixture.reset();
     auto f = std::make_unique<Fixture>();
     f->vdb = vdb;
-    f->scene = vdb_scene(vdb, vdb == kCloudVdb ? 100000 : 20000);
-    f->maps = build_trees(trace_photons(*f->scene, make_plan(f->scene->desc), /*quiet=*/true));
-    f->radius = gather_radii(*f->scene).volume;
+    f->vs = vdb_scene(vdb, vdb == kCloudVdb ? 100000 : 20000);
+    f->scene = f->vs.scene.get();
+    const SceneDesc& d = f->vs.desc;
+    f->maps = build_trees(
+        trace_photons(*f->scene, make_plan(d), d.photons, d.march, d.render.seed, /*quiet=*/true));
+    f->radius = gather_params(d, *f->scene, f->maps, false).volume.radius;
     const Timer timer;
     f->beam = std::make_unique<BeamTree>(*f->maps.volume, kK, f->radius);
     f->beam_build_s = timer.seconds();
-    f->marcher = std::make_unique<RayMarcher>(f->scene->media, f->scene->desc.march);
+    f->marcher = std::make_unique<RayMarcher>(f->scene->media, d.march);
     const Box3 box = f->scene->media[0].world_bounds();
     const Vec3 eye = box.center() + Vec3(0.0f, 0.0f, 2.0f * max_component(box.extent()));
     Rng rng(kSeed, 0);

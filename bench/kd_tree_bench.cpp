@@ -9,12 +9,12 @@
 // loop, thread CPU time; builds in wall time) in a table; ours then sets `speedup_vs_nanoflann`
 // against the faster nanoflann variant of the same run (and per leaf size), when those ran.
 
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "photon/kd_tree.h"
 #include "photon/photon.h"
 
 #include <benchmark/benchmark.h>
-#include <tbb/global_control.h>
 #include <nanoflann.hpp>
 
 #include <algorithm>
@@ -280,7 +280,7 @@ void bm_build(benchmark::State& state, Dist d, size_t n, Impl impl, const std::s
             KdTree<Photon> tree(std::move(copy));
             benchmark::DoNotOptimize(tree.records().data());
         } else if (impl == Impl::OursOneThread) {
-            tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+            const ThreadLimit one(1);
             KdTree<Photon> tree(std::move(copy));
             benchmark::DoNotOptimize(tree.records().data());
         } else {

@@ -8,11 +8,11 @@
 // raw trilinear samples.
 
 #include "bench_volumes.h"
+#include "core/parallel.h"
 #include "photon/photon_pass.h"
 #include "scene/plan.h"
 
 #include <benchmark/benchmark.h>
-#include <tbb/global_control.h>
 
 #include <chrono>
 #include <map>
@@ -52,14 +52,16 @@ void bm_trace(benchmark::State& state, std::string vdb) {
         state.SkipWithError((shared_volume(vdb) + " not found").c_str());
         return;
     }
-    const std::unique_ptr<Scene> scene = vdb_scene(vdb, kVolumeBudget, kEmitted);
-    const Plan plan = make_plan(scene->desc);
-    const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    const VdbScene vs = vdb_scene(vdb, kVolumeBudget, kEmitted);
+    const std::unique_ptr<Scene>& scene = vs.scene;
+    const Plan plan = make_plan(vs.desc);
+    const ThreadLimit one(1);
     double seconds = 0.0;
     uint64_t emitted = 0, stored = 0;
     for (auto _ : state) {
         const double t0 = wall_seconds();
-        const PhotonPassResult pass = trace_photons(*scene, plan, /*quiet=*/true);
+        const PhotonPassResult pass = trace_photons(*scene, plan, vs.desc.photons, vs.desc.march,
+                                                     vs.desc.render.seed, /*quiet=*/true);
         seconds += wall_seconds() - t0;
         emitted += pass.emitted;
         stored += pass.volume ? pass.volume->photons.size() : 0;

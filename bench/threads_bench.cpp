@@ -10,12 +10,12 @@
 // is what the shared machine offers at that moment, and the pipeline's speed-ups are also given
 // relative to it (`efficiency_<phase>` = speed-up ÷ spin speed-up).
 
+#include "core/parallel.h"
 #include "render/pipeline.h"
 #include "scene/scene_desc_json.h"
 
 #include <benchmark/benchmark.h>
 #include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -111,7 +111,7 @@ uint64_t spin_work() {
 }
 
 void bm_spin(benchmark::State& state, int threads) {
-    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const ThreadLimit limit(threads);
     double best = 0.0;
     for (auto _ : state) {
         const double t0 = wall_seconds();

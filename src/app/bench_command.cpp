@@ -317,7 +317,7 @@ int run_bench(const BenchArgs& args) {
                 std::fprintf(stderr, "reference: rendering path tracer at %d spp -> %s\n",
                              args.reference_spp, reference_file.c_str());
             const Timer timer;
-            reference = run_pipeline(*reference_desc, args.quiet).aov.beauty;
+            reference = run_pipeline(*reference_desc, args.quiet).film.beauty;
             write_exr(reference_file, reference);
             if (!args.quiet)
                 std::fprintf(stderr, "reference: done in %s\n", seconds(timer.seconds()).c_str());

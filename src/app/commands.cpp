@@ -7,7 +7,6 @@
 #include "media/volume_gen.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
-#include "render/progressive.h"
 #include "render/report.h"
 
 #include "scene/scene_desc_json.h"
@@ -87,7 +86,7 @@ int run_render(const RenderArgs& args) {
     PipelineResult run =
         run_pipeline(desc, args.quiet, args.reference.empty() ? nullptr : &reference);
     Report& report = run.report;
-    const Image& image = run.aov.beauty;
+    const Image& image = run.film.beauty;
 
     if (!args.reference.empty()) {
         const ImageError e = image_error(image, reference);
@@ -100,7 +99,7 @@ int run_render(const RenderArgs& args) {
     const Timer timer;
     make_parent_dir(exr);
     make_parent_dir(png);
-    write_exr(exr, image, run.layered ? run.aov.layers() : std::vector<NamedImage>{});
+    write_exr(exr, image, run.film.named_layers());
     write_png(png, image, args.exposure);
     report.phases_s.emplace_back("write", timer.seconds());
 

@@ -1,6 +1,7 @@
 #include "photon/photon_pass.h"
 
 #include "core/progress.h"
+#include "core/sampling.h"
 #include "core/timer.h"
 #include "media/henyey_greenstein.h"
 #include "media/ray_march.h"
@@ -33,10 +34,8 @@ struct Emitter {
 
 }  // namespace
 
-PhotonTracer::PhotonTracer(const Scene& scene)
-    : scene_(scene),
-      marcher_(scene.media, scene.desc.march),
-      offset_floor_(1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()))) {}
+PhotonTracer::PhotonTracer(const Scene& scene, const MarchSettings& march, int max_bounces)
+    : scene_(scene), marcher_(scene.media, march), method_(march.method), max_bounces_(max_bounces) {}
 
 // Henyey–Greenstein g at x: the medium chosen in proportion to its scattering there.
 float PhotonTracer::choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x,
@@ -67,7 +66,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     auto ended = [&](PathEnd end, int depth) { return TracedPath{end, ray, power, depth}; };
     bool specular_chain = true;  // every interaction so far was specular
     const bool has_media = !samplers.empty();
-    const int max_bounces = scene.desc.photons.max_bounces;
+    const int max_bounces = max_bounces_;
     for (int depth = 0; depth < max_bounces; ++depth) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
@@ -78,7 +77,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
         if (has_media) {
             bool scattered = false;
             Vec3 x;
-            if (scene.desc.march.method == FreePathMethod::March) {
+            if (method_ == FreePathMethod::March) {
                 const RayMarcher::FreePath fp =
                     marcher_.sample_free_path(samplers, ray, t_max, rng);
                 power *= fp.weight;
@@ -116,53 +115,41 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
         if (!hit) return ended(PathEnd::Escaped, depth);
         if (hit->material < 0) return ended(PathEnd::Absorbed, depth);
         const Material& mat = scene.materials[hit->material];
-        const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
-        const Vec3 n = front ? hit->ng : -hit->ng;  // faces where the photon came from
-        switch (mat.type) {
-            case MaterialType::Diffuse: {
-                if (depth > 0) {
-                    // Surface photons keep the normal of the side they arrived on (Lambertian
-                    // surfaces need no direction; see photon.h).
-                    const bool caustic = specular_chain;
-                    if (store[kGlobal])
-                        deposit(kGlobal, Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0));
-                    if (caustic && store[kCaustic]) deposit(kCaustic, Photon(hit->p, n, power));
-                }
-                const float p = average(mat.albedo);
+        if (mat.is_specular()) {
+            const SpecularScatter sc = scatter_specular(mat, ray.d, hit->p, hit->ng, rng.uniform(),
+                                                        Transport::Importance, scene.offset_floor);
+            // Russian roulette keeps the power constant (DESIGN.md, Photons): survive with the
+            // mean weight, carry on reweighted by the channel ratios.
+            const float p = average(sc.weight);
+            if (p < 1.0f) {
                 if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
-                power *= mat.albedo / p;
-                ray = Ray{offset_point(hit->p, n, offset_floor_),
-                          sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
-                specular_chain = false;
-                break;
+                power *= sc.weight / p;
             }
-            case MaterialType::Mirror: {
-                const float p = average(mat.albedo);
-                if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
-                power *= mat.albedo / p;
-                ray =
-                    Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
-                break;
-            }
-            case MaterialType::Glass: {
-                const float eta = front ? mat.ior : 1.0f / mat.ior;
-                const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
-                Vec3 wt;
-                if (rng.uniform() < F || !refract(ray.d, n, eta, &wt))
-                    ray = Ray{offset_point(hit->p, n, offset_floor_),
-                              glm::normalize(reflect(ray.d, n))};
-                else
-                    ray = Ray{offset_point(hit->p, -n, offset_floor_), wt};
-                break;
-            }
+            ray = sc.ray;
+            continue;
         }
+        const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the photon
+        if (depth > 0) {
+            // Surface photons keep the normal of the side they arrived on (Lambertian surfaces
+            // need no direction; see photon.h).
+            const bool caustic = specular_chain;
+            if (store[kGlobal])
+                deposit(kGlobal, Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0));
+            if (caustic && store[kCaustic]) deposit(kCaustic, Photon(hit->p, n, power));
+        }
+        const float p = average(mat.albedo);
+        if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
+        power *= mat.albedo / p;
+        ray = Ray{offset_point(hit->p, n, scene.offset_floor),
+                  sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
+        specular_chain = false;
     }
     return ended(PathEnd::BounceCap, max_bounces);
 }
 
-PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet) {
+PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
+                               const MarchSettings& march, uint64_t seed, bool quiet) {
     const Timer timer;
-    const PhotonSettings& settings = scene.desc.photons;
     PhotonPassResult result;
     std::array<StoredPhotons*, 3> maps{nullptr, nullptr, nullptr};
     if (plan.global_map.on) maps[kGlobal] = &result.global.emplace();
@@ -178,7 +165,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     }
     if (largest == 0) return result;
 
-    PhotonTracer tracer(scene);
+    PhotonTracer tracer(scene, march, settings.max_bounces);
     Emitter emitter;
     float cumulative = 0.0f;
     for (const Light& l : scene.lights) {
@@ -198,7 +185,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
     PhotonFocus focus;
     if (maps[kVolume])
         for (const Medium& m : scene.media) focus.bounds.extend(m.world_bounds());
-    focus.fraction = scene.desc.photons.media_fraction;
+    focus.fraction = settings.media_fraction;
     const PhotonFocus* focused = focus.bounds.empty() || focus.fraction <= 0.0f ? nullptr : &focus;
     // Light ∝ power, then a photon from it, traced.
     struct ChunkOut {
@@ -246,7 +233,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet)
             for (const Medium& m : scene.media) samplers.emplace_back(m);
             for (uint64_t c = r.begin(); c != r.end(); ++c) {
                 for (uint64_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
-                    Rng rng(scene.desc.render.seed, base + i, kPhotonStream);
+                    Rng rng(seed, base + i, kPhotonStream);
                     emit(static_cast<uint32_t>(i), rng, samplers, out[c]);
                 }
             }

@@ -41,8 +41,11 @@ struct PhotonPassResult {
     std::vector<std::string> warnings;
 };
 
-/// Runs the photon pass for the maps the plan turns on. Progress on stderr unless quiet.
-PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, bool quiet);
+/// Runs the photon pass for the maps the plan turns on, with `settings`' budgets, free paths as
+/// `march` says, and photon i drawing from Rng(seed, i, kPhotonStream). Progress on stderr
+/// unless quiet.
+PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
+                               const MarchSettings& march, uint64_t seed, bool quiet);
 
 /// The maps a path deposits photons into.
 enum class PhotonMapId : uint8_t { Global = 0, Caustic = 1, Volume = 2 };
@@ -69,12 +72,12 @@ struct TracedPath {
 };
 
 /// The photon pass's per-photon tracer (trace_photons runs it for every emitted photon; `fogmap
-/// validate` runs it on its own beams): free paths by ray marching or delta tracking as the scene's
-/// march settings say, Russian roulette on albedo, at most photons.max_bounces interactions.
+/// validate` runs it on its own beams): free paths by ray marching or delta tracking as `march`
+/// says, Russian roulette on albedo, at most max_bounces interactions.
 /// Immutable and shared const by all threads; samplers are per thread.
 class PhotonTracer {
 public:
-    explicit PhotonTracer(const Scene& scene);
+    PhotonTracer(const Scene& scene, const MarchSettings& march, int max_bounces);
 
     /// Which maps take photons (global, caustic, volume); none by default. Not during trace().
     void set_store(const std::array<bool, 3>& store) { store_ = store; }
@@ -92,8 +95,9 @@ private:
 
     const Scene& scene_;
     RayMarcher marcher_;
+    FreePathMethod method_;
+    int max_bounces_;
     std::array<bool, 3> store_{false, false, false};
-    float offset_floor_;
 };
 
 /// A built map: its kd-tree and the world power of a photon whose relative power is 1.

@@ -115,12 +115,12 @@ SlabResult run_slab(const SlabSettings& s) {
     m.sigma_a = Color(static_cast<float>((1.0 - s.albedo) * tau));
     m.g = static_cast<float>(s.g);
     desc.media.push_back(m);
-    desc.march.method = s.method;
-    desc.march.step_voxels = s.step_voxels;
-    desc.photons.max_bounces = s.max_bounces;
     const std::unique_ptr<Scene> scene = load_scene(desc);
 
-    const PhotonTracer tracer(*scene);  // stores nothing: no map takes photons
+    MarchSettings march;
+    march.method = s.method;
+    march.step_voxels = s.step_voxels;
+    const PhotonTracer tracer(*scene, march, s.max_bounces);  // stores nothing: no map takes photons
     result.delta_in_march = s.method == FreePathMethod::March && tracer.marcher().any_stiff();
     const float uniform_half = 0.5f * kWidth;
     const uint64_t chunks = (s.photons + kChunk - 1) / kChunk;

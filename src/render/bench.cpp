@@ -106,7 +106,7 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
                 if (name == kBenchPhases[p]) s += t;
             phases[p].push_back(s);
         }
-        const ImageError e = image_error(result.aov.beauty, reference);
+        const ImageError e = image_error(result.film.beauty, reference);
         rmse.push_back(e.rmse);
         rel_mse.push_back(e.rel_mse);
         bias.push_back(e.bias);

@@ -1,8 +1,8 @@
 #include "render/path_tracer.h"
 
+#include "core/sampling.h"
 #include "media/henyey_greenstein.h"
 #include "render/camera.h"
-#include "render/tiles.h"
 
 #include <optional>
 
@@ -36,10 +36,7 @@ struct PathTracer::Lobe {
     Color albedo;  // diffuse
 };
 
-PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {
-    const float extent = scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent());
-    offset_floor_ = 1e-6f * extent;
-}
+PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {}
 
 PathTracer::ThreadState PathTracer::make_state() const {
     ThreadState ts;
@@ -49,7 +46,7 @@ PathTracer::ThreadState PathTracer::make_state() const {
 }
 
 Vec3 PathTracer::offset(const Vec3& p, const Vec3& n) const {
-    return offset_point(p, n, offset_floor_);
+    return offset_point(p, n, scene_.offset_floor);
 }
 
 Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const {
@@ -155,37 +152,21 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
         }
         ++depth;
         const Material& mat = scene_.materials[hit->material];
-        const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
-        const Vec3 n = front ? hit->ng : -hit->ng;  // faces the incoming ray
+        const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the ray
         const Vec2 u(rng.uniform(), rng.uniform());
-        switch (mat.type) {
-            case MaterialType::Diffuse: {
-                L += beta * direct_light(hit->p, Lobe{false, n, 0.0f, mat.albedo}, rng, ts);
-                const Vec3 wi = sample_cosine_hemisphere(n, u);
-                prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
-                beta *= mat.albedo;  // f cos / pdf = albedo
-                specular = false;
-                ray = Ray{offset(hit->p, n), wi};
-                break;
-            }
-            case MaterialType::Mirror:
-                beta *= mat.albedo;
-                specular = true;
-                ray = Ray{offset(hit->p, n), glm::normalize(reflect(ray.d, n))};
-                break;
-            case MaterialType::Glass: {
-                const float eta = front ? mat.ior : 1.0f / mat.ior;
-                const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
-                Vec3 wt;
-                if (u.x < F || !refract(ray.d, n, eta, &wt)) {
-                    ray = Ray{offset(hit->p, n), glm::normalize(reflect(ray.d, n))};
-                } else {
-                    beta /= eta * eta;  // radiance is compressed by (n_t/n_i)^2 crossing in
-                    ray = Ray{offset(hit->p, -n), wt};
-                }
-                specular = true;
-                break;
-            }
+        if (mat.is_specular()) {
+            const SpecularScatter sc = scatter_specular(mat, ray.d, hit->p, hit->ng, u.x,
+                                                        Transport::Radiance, scene_.offset_floor);
+            beta *= sc.weight;
+            ray = sc.ray;
+            specular = true;
+        } else {
+            L += beta * direct_light(hit->p, Lobe{false, n, 0.0f, mat.albedo}, rng, ts);
+            const Vec3 wi = sample_cosine_hemisphere(n, u);
+            prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+            beta *= mat.albedo;  // f cos / pdf = albedo
+            specular = false;
+            ray = Ray{offset(hit->p, n), wi};
         }
         prev_p = hit->p;
         if (!survive(depth, &beta, rng)) break;
@@ -193,33 +174,17 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
     return L;
 }
 
-Image render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
-                  RenderStats* stats) {
-    const Camera camera(scene.desc.camera);
+Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
+                 RenderStats* stats) {
     const PathTracer tracer(scene, settings.max_depth);
-    const int w = camera.width(), h = camera.height();
-    Image image(w, h);
-    render_tiles(
-        w, h, settings, quiet, stats, [&] { return tracer.make_state(); },
-        [&](int x, int y, PathTracer::ThreadState& ts) {
-            Color sum(0.0f);
-            uint64_t dropped = 0;
-            const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
-            const uint64_t jitter_key = pixel_key(settings.seed, pixel);
-            for (int s = 0; s < settings.spp; ++s) {
-                Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
-                const Vec2 j = pixel_jitter(s, settings.spp, jitter_key,
-                                            Vec2(rng.uniform(), rng.uniform()));
-                const Color c = tracer.radiance(camera.generate(x + j.x, y + j.y), rng, ts);
-                if (is_finite(c))
-                    sum += c;
-                else
-                    ++dropped;
-            }
-            image.at(x, y) = sum / static_cast<float>(settings.spp);
-            return dropped;
+    return render_film(
+        Camera(scene.camera), settings.spp, settings.seed, /*layered=*/false, quiet, stats,
+        [&] { return tracer.make_state(); },
+        [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts) {
+            FilmSample sample;
+            sample.beauty = tracer.radiance(ray, rng, ts);
+            return sample;
         });
-    return image;
 }
 
 }  // namespace fogmap

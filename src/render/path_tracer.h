@@ -6,23 +6,14 @@
 // throughput falls below 1; max_depth caps the number of scattering/bounce vertices.
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
-#include "core/image.h"
 #include "core/rng.h"
+#include "render/film.h"
 #include "scene/scene.h"
 
 #include <cstdint>
 #include <vector>
 
 namespace fogmap {
-
-struct RenderStats {
-    double render_s = 0.0;   ///< wall time of the render pass
-    uint64_t samples = 0;    ///< camera samples traced
-    uint64_t rays = 0;       ///< Embree queries (closest hit + occlusion)
-    uint64_t nonfinite = 0;  ///< samples dropped because they were NaN or infinite
-    uint64_t capped = 0;     ///< samples whose path render.max_depth cut while it carried light
-    int threads = 0;         ///< worker threads used
-};
 
 class PathTracer {
 public:
@@ -46,12 +37,12 @@ private:
 
     const Scene& scene_;
     int max_depth_;
-    float offset_floor_;
 };
 
-/// Renders scene.desc.camera with the path tracer using settings.spp samples per pixel.
-/// threads = 0 uses every core. Progress on stderr unless quiet.
-Image render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
-                  RenderStats* stats);
+/// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
+/// settings.max_depth (the worker count is the caller's ThreadLimit). An unlayered film.
+/// Progress on stderr unless quiet.
+Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
+                 RenderStats* stats);
 
 }  // namespace fogmap

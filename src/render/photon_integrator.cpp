@@ -4,11 +4,9 @@
 #include "media/henyey_greenstein.h"
 #include "photon/estimators.h"
 #include "render/camera.h"
-#include "render/tiles.h"
+#include "core/sampling.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -37,48 +35,29 @@ struct PhotonIntegrator::Irradiance {
     KdTree<IrradiancePoint> tree;
 };
 
-std::vector<NamedImage> AovImages::layers() const {
-    return {{"direct", &direct},
-            {"volume_single", &volume_single},
-            {"volume_multiple", &volume_multiple},
-            {"caustic", &caustic},
-            {"indirect", &indirect}};
-}
-
-GatherRadii gather_radii(const Scene& scene) {
-    const float diag = scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent());
-    Box3 media;
-    for (const Medium& m : scene.media) media.extend(m.world_bounds());
-    const float media_diag = media.empty() ? diag : glm::length(media.extent());
-    const SceneDesc& d = scene.desc;
-    return {d.global.radius > 0.0f ? d.global.radius : 0.02f * diag,
-            d.caustic.radius > 0.0f ? d.caustic.radius : 0.01f * diag,
-            d.volume.radius > 0.0f ? d.volume.radius : 0.05f * media_diag};
-}
-
 PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
-                                   const GatherOverride* gather)
+                                   const GatherParams& gather, const MarchSettings& march,
+                                   int max_depth)
     : scene_(scene),
       maps_(maps),
-      marcher_(scene.media, scene.desc.march),
-      radii_(gather ? gather->radii : gather_radii(scene)),
-      k_global_(gather && gather->fixed_radius ? 0 : scene.desc.global.k),
-      k_caustic_(gather && gather->fixed_radius ? 0 : scene.desc.caustic.k),
-      k_volume_(gather && gather->fixed_radius ? 0 : scene.desc.volume.k) {
-    offset_floor_ = 1e-6f * (scene.bounds.empty() ? 1.0f : glm::length(scene.bounds.extent()));
+      gather_(gather),
+      marcher_(scene.media, march),
+      max_depth_(max_depth) {
     const Timer timer;
-    if (scene.desc.volume.estimator == VolumeEstimator::Beam && maps.volume)
-        beam_ = std::make_unique<BeamTree>(*maps.volume, k_volume_, radii_.volume);
+    if (gather.estimator == VolumeEstimator::Beam && maps.volume)
+        beam_ = std::make_unique<BeamTree>(*maps.volume, estimator_k(gather.volume),
+                                           gather.volume.radius);
     if (beam_) precompute_s_ = timer.seconds();
-    if (!scene.desc.global.final_gather || !maps.global || maps.global->tree.empty()) return;
+    if (!gather.final_gather || !maps.global || maps.global->tree.empty()) return;
     const std::vector<Photon>& photons = maps.global->tree.records();
     std::vector<IrradiancePoint> points((photons.size() + 3) / 4);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size()), [&](const auto& r) {
         NeighborList scratch;
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Photon& p = photons[4 * i];
-            const Color e = surface_irradiance(*maps.global, p.position(), p.direction(), k_global_,
-                                               radii_.global, 0.0f, 0, scratch);
+            const Color e =
+                surface_irradiance(*maps.global, p.position(), p.direction(),
+                                   estimator_k(gather.global), gather.global.radius, 0.0f, 0, scratch);
             points[i] =
                 IrradiancePoint{{p.pos[0], p.pos[1], p.pos[2]}, p.dir_oct, 3, 0, {e.x, e.y, e.z}};
         }
@@ -107,7 +86,7 @@ Color PhotonIntegrator::shadow_transmittance(const Ray& ray, float t_max, Rng& r
 
 Color PhotonIntegrator::direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
                                        ThreadState& ts) const {
-    const Vec3 origin = offset_point(p, n, offset_floor_);
+    const Vec3 origin = offset_point(p, n, scene_.offset_floor);
     Color sum(0.0f);
     for (const Light& light : scene_.lights) {
         const Vec2 u(rng.uniform(), rng.uniform());
@@ -150,7 +129,7 @@ float PhotonIntegrator::phase_g(ThreadState& ts, const Vec3& x) const {
 
 Color PhotonIntegrator::global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const {
     if (irradiance_) {
-        irradiance_->tree.knn(p, 8, radii_.global, &ts.neighbors);
+        irradiance_->tree.knn(p, 8, gather_.global.radius, &ts.neighbors);
         float best = kInfinity;
         const IrradiancePoint* found = nullptr;
         for (size_t i = 0; i < ts.neighbors.size(); ++i) {
@@ -163,13 +142,14 @@ Color PhotonIntegrator::global_irradiance(const Vec3& p, const Vec3& n, ThreadSt
         }
         if (found) return Color(found->e[0], found->e[1], found->e[2]);
     }
-    return surface_irradiance(*maps_.global, p, n, k_global_, radii_.global, 0.0f, 0, ts.neighbors);
+    return surface_irradiance(*maps_.global, p, n, estimator_k(gather_.global),
+                              gather_.global.radius, 0.0f, 0, ts.neighbors);
 }
 
 Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
                                      ThreadState& ts) const {
-    const int rays = scene_.desc.global.gather_rays;
-    const Vec3 origin = offset_point(p, n, offset_floor_);
+    const int rays = gather_.gather_rays;
+    const Vec3 origin = offset_point(p, n, scene_.offset_floor);
     Color sum(0.0f);
     for (int j = 0; j < rays; ++j) {
         // Stratified in the first dimension, cosine-distributed: each ray's weight is L2 itself.
@@ -198,7 +178,7 @@ Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
 Color PhotonIntegrator::single_scattering(const Ray& ray, const Color& beta, Rng& rng,
                                           ThreadState& ts) const {
     const std::vector<MarchedStep>& steps = ts.steps;
-    const int m = scene_.desc.volume.light_samples;
+    const int m = gather_.light_samples;
     Color sum(0.0f);
     if (m == 0) {
         for (const MarchedStep& st : steps) {
@@ -275,11 +255,11 @@ Color PhotonIntegrator::multiple_scattering(const Vec3& dir, Rng& rng, ThreadSta
     Color sum(0.0f);
     auto gather = [&](const MarchedStep& st, float factor) {
         sum += factor * st.weight *
-               volume_inscattered(*maps_.volume, st.x, -dir, phase_g(ts, st.x), k_volume_,
-                                  radii_.volume, ts.neighbors);
+               volume_inscattered(*maps_.volume, st.x, -dir, phase_g(ts, st.x),
+                                  estimator_k(gather_.volume), gather_.volume.radius, ts.neighbors);
     };
     const std::vector<MarchedStep>& steps = ts.steps;
-    const size_t m = static_cast<size_t>(scene_.desc.volume.lookups_per_ray);
+    const size_t m = static_cast<size_t>(gather_.lookups_per_ray);
     std::vector<double>& cdf = ts.cdf;
     cdf.clear();
     double total = 0.0;
@@ -320,14 +300,12 @@ Color PhotonIntegrator::beam_estimate(const Ray& ray, ThreadState& ts) const {
     return sum * maps_.volume->photon_power;
 }
 
-PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng,
-                                                    ThreadState& ts) const {
-    Sample out;
+FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) const {
+    FilmSample out;
     Ray ray = camera_ray;
     Color beta(1.0f);
-    const SceneDesc& desc = scene_.desc;
     int depth = 0;
-    for (; depth < desc.render.max_depth; ++depth) {
+    for (; depth < max_depth_; ++depth) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
         if (scene_.surfaces) {
@@ -346,107 +324,68 @@ PhotonIntegrator::Sample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& 
                 return max_component(exp_neg(tau)) > 1e-6f;  // nothing visible beyond
             });
             if (!ts.steps.empty()) {
-                out.volume_single += single_scattering(ray, beta, rng, ts);
+                out[Layer::VolumeSingle] += single_scattering(ray, beta, rng, ts);
                 if (beam_)
-                    out.volume_multiple += beta * beam_estimate(ray, ts);
+                    out[Layer::VolumeMultiple] += beta * beam_estimate(ray, ts);
                 else if (maps_.volume)
-                    out.volume_multiple += multiple_scattering(ray.d, rng, ts);
+                    out[Layer::VolumeMultiple] += multiple_scattering(ray.d, rng, ts);
             }
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }
         if (!hit) {
             for (const Light& light : scene_.lights)
-                if (light.is_infinite()) out.direct += beta * escaped_radiance(light, ray.d);
+                if (light.is_infinite()) out[Layer::Direct] += beta * escaped_radiance(light, ray.d);
             break;
         }
         if (hit->light >= 0) {
-            out.direct += beta * quad_radiance(scene_.lights[hit->light], ray.d);
+            out[Layer::Direct] += beta * quad_radiance(scene_.lights[hit->light], ray.d);
             break;
         }
         if (hit->material < 0) break;
         const Material& mat = scene_.materials[hit->material];
-        const bool front = glm::dot(ray.d, hit->ng) < 0.0f;
-        const Vec3 n = front ? hit->ng : -hit->ng;
-        if (mat.type == MaterialType::Diffuse) {
-            out.direct += beta * direct_surface(hit->p, n, mat.albedo, rng, ts);
-            if (maps_.caustic)
-                out.caustic +=
-                    beta * mat.albedo * kInvPi *
-                    surface_irradiance(*maps_.caustic, hit->p, n, k_caustic_, radii_.caustic,
-                                       desc.caustic.cone_filter, 0, ts.neighbors);
-            if (maps_.global) {
-                if (desc.global.final_gather)
-                    out.indirect += beta * mat.albedo * final_gather(hit->p, n, rng, ts);
-                else
-                    out.indirect +=
-                        beta * mat.albedo * kInvPi *
-                        surface_irradiance(*maps_.global, hit->p, n, k_global_, radii_.global, 0.0f,
-                                           Photon::kCaustic, ts.neighbors);
-            }
-            break;
-        }
-        if (mat.type == MaterialType::Mirror) {
-            beta *= mat.albedo;
-            ray = Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
+        if (mat.is_specular()) {
+            const SpecularScatter sc = scatter_specular(mat, ray.d, hit->p, hit->ng, rng.uniform(),
+                                                        Transport::Radiance, scene_.offset_floor);
+            beta *= sc.weight;
+            ray = sc.ray;
             continue;
         }
-        const float eta = front ? mat.ior : 1.0f / mat.ior;
-        const float F = fresnel_dielectric(-glm::dot(ray.d, n), eta);
-        Vec3 wt;
-        if (rng.uniform() < F || !refract(ray.d, n, eta, &wt)) {
-            ray = Ray{offset_point(hit->p, n, offset_floor_), glm::normalize(reflect(ray.d, n))};
-        } else {
-            beta /= eta * eta;
-            ray = Ray{offset_point(hit->p, -n, offset_floor_), wt};
+        const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
+        out[Layer::Direct] += beta * direct_surface(hit->p, n, mat.albedo, rng, ts);
+        if (maps_.caustic)
+            out[Layer::Caustic] += beta * mat.albedo * kInvPi *
+                                   surface_irradiance(*maps_.caustic, hit->p, n,
+                                                      estimator_k(gather_.caustic),
+                                                      gather_.caustic.radius, gather_.cone_filter,
+                                                      0, ts.neighbors);
+        if (maps_.global) {
+            if (gather_.final_gather)
+                out[Layer::Indirect] += beta * mat.albedo * final_gather(hit->p, n, rng, ts);
+            else
+                out[Layer::Indirect] += beta * mat.albedo * kInvPi *
+                                        surface_irradiance(*maps_.global, hit->p, n,
+                                                           estimator_k(gather_.global),
+                                                           gather_.global.radius, 0.0f,
+                                                           Photon::kCaustic, ts.neighbors);
         }
+        break;
     }
-    if (depth == desc.render.max_depth) ++ts.capped;  // a specular chain ran into the cap
+    if (depth == max_depth_) ++ts.capped;  // a specular chain ran into the cap
     return out;
 }
 
-AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
-                        bool quiet, RenderStats* stats, double* precompute_s,
-                        const GatherOverride* gather) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, thread_count(settings));
-    const PhotonIntegrator integrator(scene, maps, gather);
+Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
+                   const MarchSettings& march, const RenderSettings& settings, bool quiet,
+                   RenderStats* stats, double* precompute_s) {
+    const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth);
     if (precompute_s) *precompute_s = integrator.precompute_s();
-    const Camera camera(scene.desc.camera);
-    const int w = camera.width(), h = camera.height();
-    AovImages aov{Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h), Image(w, h)};
-    render_tiles(
-        w, h, settings, quiet, stats, [&] { return integrator.make_state(); },
-        [&](int x, int y, PhotonIntegrator::ThreadState& ts) {
-            PhotonIntegrator::Sample sum;
-            uint64_t dropped = 0;
-            const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
-            const uint64_t jitter_key = pixel_key(settings.seed, pixel);
-            for (int s = 0; s < settings.spp; ++s) {
-                Rng rng(settings.seed, pixel, static_cast<uint64_t>(s));
-                const Vec2 j = pixel_jitter(s, settings.spp, jitter_key,
-                                            Vec2(rng.uniform(), rng.uniform()));
-                const PhotonIntegrator::Sample c =
-                    integrator.radiance(camera.generate(x + j.x, y + j.y), rng, ts);
-                if (!is_finite(c.beauty())) {
-                    ++dropped;
-                    continue;
-                }
-                sum.direct += c.direct;
-                sum.volume_single += c.volume_single;
-                sum.volume_multiple += c.volume_multiple;
-                sum.caustic += c.caustic;
-                sum.indirect += c.indirect;
-            }
-            const float inv = 1.0f / static_cast<float>(settings.spp);
-            aov.direct.at(x, y) = sum.direct * inv;
-            aov.volume_single.at(x, y) = sum.volume_single * inv;
-            aov.volume_multiple.at(x, y) = sum.volume_multiple * inv;
-            aov.caustic.at(x, y) = sum.caustic * inv;
-            aov.indirect.at(x, y) = sum.indirect * inv;
-            aov.beauty.at(x, y) = sum.beauty() * inv;
-            return dropped;
+    return render_film(
+        Camera(scene.camera), settings.spp, settings.seed, /*layered=*/true, quiet, stats,
+        [&] { return integrator.make_state(); },
+        [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts) {
+            return integrator.radiance(ray, rng, ts);
         });
-    return aov;
 }
 
 }  // namespace fogmap

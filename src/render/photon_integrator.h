@@ -12,39 +12,21 @@
 // Each term goes to its own AOV. Deterministic per seed: pixel (x, y), sample s draws from
 // Rng(seed, y*width+x, s).
 
-#include "core/image.h"
 #include "media/ray_march.h"
 #include "photon/beam_tree.h"
 #include "photon/photon_pass.h"
-#include "render/path_tracer.h"
+#include "render/film.h"
+#include "render/gather_params.h"
 
 namespace fogmap {
 
-/// Beauty and its additive parts.
-struct AovImages {
-    Image beauty, direct, volume_single, volume_multiple, caustic, indirect;
-    /// The EXR layers, in a fixed order.
-    std::vector<NamedImage> layers() const;
-};
-
-/// Effective gather radii after defaults (world units).
-struct GatherRadii {
-    float global = 0.0f, caustic = 0.0f, volume = 0.0f;
-};
-GatherRadii gather_radii(const Scene& scene);
-
-/// Gathers with given radii; with fixed_radius every photon within the radius counts (k is
-/// ignored), as progressive photon mapping needs.
-struct GatherOverride {
-    GatherRadii radii;
-    bool fixed_radius = true;
-};
-
 class PhotonIntegrator {
 public:
-    /// Precomputes irradiance at every fourth global photon when final gathering is on.
-    PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
-                     const GatherOverride* gather = nullptr);
+    /// Gathers from `maps` as `gather` says, marching camera rays as `march` says, following at
+    /// most max_depth specular bounces. Builds the beam hierarchy for the beam estimate and
+    /// precomputes irradiance at every fourth global photon when final gathering is on.
+    PhotonIntegrator(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
+                     const MarchSettings& march, int max_depth);
     ~PhotonIntegrator();
 
     /// One march step of the current camera segment (σ held constant over [t0, t1]).
@@ -65,15 +47,8 @@ public:
     };
     ThreadState make_state() const;
 
-    struct Sample {
-        Color direct{0.0f}, volume_single{0.0f}, volume_multiple{0.0f}, caustic{0.0f},
-            indirect{0.0f};
-        Color beauty() const {
-            return direct + volume_single + volume_multiple + caustic + indirect;
-        }
-    };
-    /// One camera sample along ray (unit direction).
-    Sample radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
+    /// One camera sample along ray (unit direction), split into the film's layers.
+    FilmSample radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
 
     /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
     double precompute_s() const { return precompute_s_; }
@@ -93,20 +68,24 @@ private:
     Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;
     float phase_g(ThreadState& ts, const Vec3& x) const;
 
+    /// k as the estimators take it: 0 = every photon within the radius.
+    static int estimator_k(const MapGather& g) { return g.fixed_radius ? 0 : g.k; }
+
     const Scene& scene_;
     const PhotonMaps& maps_;
+    GatherParams gather_;
     RayMarcher marcher_;
-    GatherRadii radii_;
-    int k_global_, k_caustic_, k_volume_;  ///< 0 = all photons within the radius
-    float offset_floor_;
+    int max_depth_;
     std::unique_ptr<Irradiance> irradiance_;
     std::unique_ptr<BeamTree> beam_;
     double precompute_s_ = 0.0;
 };
 
-/// Renders all AOVs with the photon integrator (gather radii from the scene unless `gather`).
-AovImages render_photon(const Scene& scene, const PhotonMaps& maps, const RenderSettings& settings,
-                        bool quiet, RenderStats* stats, double* precompute_s,
-                        const GatherOverride* gather = nullptr);
+/// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
+/// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).
+/// *precompute_s (may be null) gets the integrator's precomputation time.
+Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
+                   const MarchSettings& march, const RenderSettings& settings, bool quiet,
+                   RenderStats* stats, double* precompute_s);
 
 }  // namespace fogmap

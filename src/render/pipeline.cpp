@@ -1,31 +1,28 @@
 #include "render/pipeline.h"
 
+#include "core/parallel.h"
+#include "core/rng.h"
 #include "core/timer.h"
 #include "photon/photon_pass.h"
+#include "render/gather_params.h"
+#include "render/metrics.h"
 #include "render/path_tracer.h"
-#include "render/progressive.h"
-#include "render/tiles.h"
+#include "render/photon_integrator.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
-#include <tbb/global_control.h>
-
 #include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
 
 namespace fogmap {
 
-LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report) {
-    const Timer timer;
-    LoadedScene loaded{make_plan(desc), nullptr};
-    report->plan_text = plan_text(loaded.plan);
-    report->plan = plan_json(loaded.plan);
-    if (!quiet) std::fprintf(stderr, "%s", report->plan_text.c_str());
-    loaded.scene = load_scene(desc);
-    report->phases_s.emplace_back("load", timer.seconds());
-    return loaded;
-}
+namespace {
 
+/// One report entry per map built (global, caustic, volume order).
 std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     std::vector<MapReport> out;
     const std::pair<const char*, const std::optional<PhotonMap>*> named[] = {
@@ -37,51 +34,99 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     return out;
 }
 
+void warn(Report* report, const std::string& text) {
+    std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+    report->warnings.push_back(text);
+}
+
+}  // namespace
+
+uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
+    return progressive ? mix64(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i)) : seed;
+}
+
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference) {
     PipelineResult out;
-    if (desc.progressive.enabled() && desc.render.integrator == Integrator::Photon) {
-        ProgressiveResult p = run_progressive(desc, reference, quiet);
-        return {std::move(p.aov), true, std::move(p.report)};
-    }
     Report& report = out.report;
-    const auto [plan, scene] = plan_and_load(desc, quiet, &report);
-    // One thread limit for every parallel phase of this run.
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
-                              thread_count(desc.render));
-    RenderStats stats;
-    if (desc.render.integrator == Integrator::Photon) {
-        PhotonPassResult pass = trace_photons(*scene, plan, quiet);
-        for (const std::string& w : pass.warnings)
-            if (!quiet) std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
-        report.phases_s.emplace_back("photon pass", pass.time_s);
-        report.photons_emitted = pass.emitted;
-        report.photons_capped = pass.capped;
-        report.photons_capped_power = pass.capped_power;
-        const PhotonMaps maps = build_trees(std::move(pass));
-        report.maps = map_reports(maps);
-        for (const MapReport& m : report.maps)
-            report.phases_s.emplace_back("build " + m.name, m.build_s);
-        double precompute_s = 0.0;
-        out.aov = render_photon(*scene, maps, desc.render, quiet, &stats, &precompute_s);
-        if (precompute_s > 0.0) report.phases_s.emplace_back("precompute", precompute_s);
-        out.layered = true;
-    } else {
-        out.aov.beauty = render_path(*scene, desc.render, quiet, &stats);
-    }
-    report.phases_s.emplace_back("render", stats.render_s);
+    const Timer timer;
+    const Plan plan = make_plan(desc);
+    report.plan_text = plan_text(plan);
+    report.plan = plan_json(plan);
+    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
+    const std::unique_ptr<const Scene> scene = load_scene(desc);
+    add_phase(&report, "load", timer.seconds());
 
+    const ThreadLimit threads(desc.render.threads);
+    const bool photon = desc.render.integrator == Integrator::Photon;
+    const bool progressive = photon && desc.progressive.enabled();
+    const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
+    std::optional<GatherParams> first_gather;
+    for (int i = 1;; ++i) {
+        RenderSettings settings = desc.render;
+        settings.seed = iteration_seed(desc.render.seed, i, progressive);
+        IterationReport it;
+        it.index = i;
+        RenderStats stats;
+        if (photon) {
+            PhotonPassResult pass =
+                trace_photons(*scene, plan, desc.photons, desc.march, settings.seed, quiet_pass);
+            if (i == 1)
+                for (const std::string& w : pass.warnings) warn(&report, w);
+            add_phase(&report, "photon pass", pass.time_s);
+            report.photons_emitted += pass.emitted;
+            report.photons_capped += pass.capped;
+            report.photons_capped_power += pass.capped_power;
+            const PhotonMaps maps = build_trees(std::move(pass));
+            const std::vector<MapReport> built = map_reports(maps);
+            for (const MapReport& m : built) {
+                add_phase(&report, "build " + m.name, m.build_s);
+                it.photon_bytes += m.bytes;
+            }
+            if (i == 1) {
+                report.maps = built;  // one iteration's maps: the memory held at any time
+                first_gather = gather_params(desc, *scene, maps, progressive);
+            }
+            const GatherParams gather = gather_at_iteration(*first_gather, i, desc.progressive.alpha);
+            it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
+            double precompute_s = 0.0;
+            out.film.add(render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
+                                       &stats, &precompute_s));
+            if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
+        } else {
+            out.film.add(render_path(*scene, settings, quiet_pass, &stats));
+        }
+        add_phase(&report, "render", stats.render_s);
+        report.samples += stats.samples;
+        report.rays += stats.rays;
+        report.nonfinite += stats.nonfinite;
+        report.depth_capped += stats.capped;
+        report.render_s += stats.render_s;
+        report.threads = stats.threads;
+        it.elapsed_s = timer.seconds();
+        if (reference) {
+            Image mean = out.film.beauty;
+            for (Color& c : mean.pixels) c *= 1.0f / static_cast<float>(i);
+            it.rel_mse = image_error(mean, *reference).rel_mse;
+        }
+        report.iterations.push_back(it);
+        if (progressive && !quiet)
+            std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n", i,
+                         it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
+                         reference ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
+        const ProgressiveDesc& p = desc.progressive;
+        if (!progressive || (p.iterations > 0 && i >= p.iterations) ||
+            (p.time_budget > 0.0f && timer.seconds() >= p.time_budget))
+            break;
+    }
+    const int n = static_cast<int>(report.iterations.size());
+    if (n > 1) out.film.scale(1.0f / static_cast<float>(n));
     report.scene = desc.path;
     report.settings = settings_json(desc);
-    report.width = out.aov.beauty.width;
-    report.height = out.aov.beauty.height;
-    report.spp = desc.render.spp;
-    report.threads = stats.threads;
-    report.samples = stats.samples;
-    report.rays = stats.rays;
-    report.nonfinite = stats.nonfinite;
-    report.depth_capped = stats.capped;
-    report.render_s = stats.render_s;
-    report.mean = out.aov.beauty.mean();
+    report.width = out.film.beauty.width;
+    report.height = out.film.beauty.height;
+    report.spp = desc.render.spp * n;
+    report.photons_capped_power /= n;  // the mean share over iterations
+    report.mean = out.film.beauty.mean();
     return out;
 }
 

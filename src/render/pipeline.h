@@ -1,41 +1,32 @@
 #pragma once
-// The whole run of one scene description (DESIGN.md, Pipeline): Plan → load → photon pass →
-// kd-trees → render, timed by phase, with no files written. `fogmap render` and `fogmap bench`
-// both call it, so every run is measured the same way.
+// The whole run of one scene description (DESIGN.md, Pipeline): plan and load once, then one loop
+// of iterations — photon pass with the iteration's seed, kd-trees, render with the iteration's
+// gather — accumulated into one film; timed by phase, with no files written. A plain render is one
+// iteration; progressive photon mapping (Knaus & Zwicker 2011) runs until its count or time
+// budget. `fogmap render` and `fogmap bench` both call it, so every run is measured the same way.
 
-#include "render/photon_integrator.h"
+#include "core/image.h"
+#include "render/film.h"
 #include "render/report.h"
-#include "scene/plan.h"
-#include "scene/scene.h"
 #include "scene/scene_desc.h"
 
-#include <memory>
+#include <cstdint>
 
 namespace fogmap {
 
 struct PipelineResult {
-    AovImages aov;         ///< beauty always; the other layers only for the photon integrator
-    bool layered = false;  ///< aov holds AOV layers
-    Report report;         ///< plan, settings, phases, maps, stats, image mean
+    Film film;      ///< mean over iterations; layered for the photon integrator
+    Report report;  ///< plan, settings, phases (summed over iterations), maps, iterations, mean
 };
 
-/// A planned and loaded scene: the first two stages of every run.
-struct LoadedScene {
-    Plan plan;
-    std::unique_ptr<Scene> scene;
-};
+/// The seed of iteration i (1-based), a function of the run's seed and i alone: a plain render
+/// uses the seed itself, progressive iterations independent streams derived from it.
+uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 
-/// Makes the plan (printed on stderr unless quiet) and loads the scene, filling the report's
-/// plan and its "load" phase. Throws InputError for unreadable scene data.
-LoadedScene plan_and_load(const SceneDesc& desc, bool quiet, Report* report);
-
-/// One report entry per map built (global, caustic, volume order).
-std::vector<MapReport> map_reports(const PhotonMaps& maps);
-
-/// Runs `desc` with desc.render.threads threads — progressive iterations (render/progressive.h)
-/// when desc.progressive asks for them and the integrator is the photon map. Progress and
-/// warnings on stderr unless quiet; `reference` (optional) only feeds the per-iteration error of
-/// progressive runs. Throws InputError for unreadable scene data (meshes, VDB files).
+/// Runs `desc` with desc.render.threads threads (one ThreadLimit for every phase). Progress on
+/// stderr unless quiet; warnings on stderr always (and in the report). `reference` (optional)
+/// feeds the per-iteration error of progressive runs. Throws InputError for unreadable scene data
+/// (meshes, VDB files).
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr);
 
 }  // namespace fogmap

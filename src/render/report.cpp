@@ -15,7 +15,20 @@ std::string fixed(double v, int digits) {
 
 double per_second(double n, double s) { return s > 0.0 ? n / s : 0.0; }
 
+nlohmann::json radii_json(const IterationReport::Radii& r) {
+    return {r.global, r.caustic, r.volume};
+}
+
 }  // namespace
+
+void add_phase(Report* report, const std::string& name, double s) {
+    for (auto& [n, t] : report->phases_s)
+        if (n == name) {
+            t += s;
+            return;
+        }
+    report->phases_s.emplace_back(name, s);
+}
 
 std::string report_text(const Report& r) {
     std::ostringstream out;
@@ -46,11 +59,11 @@ std::string report_text(const Report& r) {
     if (r.photons_emitted > 0)
         out << "photon paths cut by photons.max_bounces: " << r.photons_capped << " ("
             << fixed(100.0 * r.photons_capped_power, 3) << "% of the emitted power)\n";
-    for (const auto& it : r.iterations)
-        out << "iteration " << it["index"] << ": " << fixed(it["elapsed_s"].get<double>(), 2)
-            << " s, radii " << it["radii"].dump()
-            << (it["rel_mse"].get<double>() >= 0.0 ? ", relmse " + it["rel_mse"].dump() : "")
-            << "\n";
+    for (const IterationReport& it : r.iterations)
+        out << "iteration " << it.index << ": " << fixed(it.elapsed_s, 2) << " s, radii "
+            << radii_json(it.radii).dump()
+            << (it.rel_mse >= 0.0 ? ", relmse " + nlohmann::json(it.rel_mse).dump() : "") << "\n";
+    for (const std::string& w : r.warnings) out << "warning: " << w << "\n";
     out << "image mean: " << r.mean << "\n";
     if (!r.reference.empty())
         out << "error vs " << r.reference << ": rmse " << r.rmse << ", relmse " << r.rel_mse
@@ -67,6 +80,13 @@ nlohmann::json report_json(const Report& r) {
         total += s;
     }
     phases["total"] = total;
+    nlohmann::json iterations = nlohmann::json::array();
+    for (const IterationReport& it : r.iterations)
+        iterations.push_back({{"index", it.index},
+                              {"elapsed_s", it.elapsed_s},
+                              {"radii", radii_json(it.radii)},
+                              {"rel_mse", it.rel_mse},
+                              {"photon_bytes", it.photon_bytes}});
     nlohmann::json maps = nlohmann::json::object();
     for (const MapReport& m : r.maps)
         maps[m.name] = {{"stored", m.stored},
@@ -95,7 +115,8 @@ nlohmann::json report_json(const Report& r) {
               {"photon_power_fraction", r.photons_capped_power}}},
             {"maps", maps},
             {"mean", r.mean},
-            {"iterations", r.iterations.is_null() ? nlohmann::json::array() : r.iterations},
+            {"iterations", iterations},
+            {"warnings", r.warnings},
             {"reference", r.reference.empty() ? nlohmann::json()
                                               : nlohmann::json{{"file", r.reference},
                                                                {"rmse", r.rmse},

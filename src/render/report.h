@@ -20,6 +20,17 @@ struct MapReport {
     double build_s = 0.0;  ///< kd-tree build wall time
 };
 
+/// One iteration of a run (a plain render is one iteration; progressive runs have many).
+struct IterationReport {
+    int index = 0;           ///< 1-based
+    double elapsed_s = 0.0;  ///< since the run started, after this iteration
+    struct Radii {
+        float global = 0.0f, caustic = 0.0f, volume = 0.0f;
+    } radii;                  ///< the gather radii of this iteration (0: map not built)
+    double rel_mse = -1.0;    ///< of the running mean against the reference (-1: none)
+    size_t photon_bytes = 0;  ///< memory of this iteration's maps
+};
+
 struct Report {
     std::string scene;                                     ///< scene file
     nlohmann::json settings;                               ///< effective render settings
@@ -35,11 +46,15 @@ struct Report {
     uint64_t depth_capped = 0;          ///< camera samples cut by render.max_depth
     uint64_t photons_capped = 0;        ///< photon paths cut by photons.max_bounces
     double photons_capped_power = 0.0;  ///< their power / all emitted power
-    nlohmann::json iterations;          ///< progressive runs: one entry per iteration
+    std::vector<IterationReport> iterations;
+    std::vector<std::string> warnings;  ///< also printed on stderr as they arise
     double mean = 0.0;                  ///< mean of the beauty image over pixels and channels
     std::string reference;              ///< reference image, "" = none
     double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference
 };
+
+/// Adds `s` seconds to the phase `name` (appended the first time: phases keep their order).
+void add_phase(Report* report, const std::string& name, double s);
 
 /// Human-readable multi-line report.
 std::string report_text(const Report& report);

@@ -1,22 +1,17 @@
 #pragma once
-// The render pass's parallel loop, shared by every integrator: 16x16 tiles over TBB with
-// settings.threads threads (0 = all cores), one thread state per tile, a progress bar, and the
-// stats (wall time, samples, rays, dropped samples); and the sub-pixel sample positions both
-// integrators use (N-rooks). Pixels depend only on their own indices, so the image is the same
-// for any thread count.
+// The render pass's parallel loop: 16x16 tiles over TBB (as many workers as the run's
+// ThreadLimit allows), one thread state per tile and a progress bar; and the sub-pixel sample
+// positions (N-rooks). Pixels depend only on their own indices, so the image is the same for any
+// thread count. render/film.h builds the per-pixel sample loop on these.
 
+#include "core/math.h"
 #include "core/progress.h"
 #include "core/rng.h"
-#include "core/timer.h"
-#include "render/path_tracer.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 
 namespace fogmap {
 
@@ -53,47 +48,25 @@ inline Vec2 pixel_jitter(int s, int spp, uint64_t key, Vec2 u) {
                 std::min((static_cast<float>(row) + u.y) * inv, 0x1.fffffep-1f));
 }
 
-/// Worker threads of a run: settings.threads, or every core when 0.
-inline int thread_count(const RenderSettings& settings) {
-    return settings.threads > 0 ? settings.threads : tbb::info::default_concurrency();
-}
-
 /// Calls shade_pixel(x, y, state) for every pixel of a width x height image, with
-/// state = make_state() made once per tile; shade_pixel returns how many of its samples were
-/// dropped as non-finite, and state.rays counts the rays it traced.
-template <class MakeState, class ShadePixel>
-void render_tiles(int width, int height, const RenderSettings& settings, bool quiet,
-                  RenderStats* stats, MakeState&& make_state, ShadePixel&& shade_pixel) {
+/// state = make_state() made once per tile, and end_tile(state) on the worker after each tile.
+template <class MakeState, class ShadePixel, class EndTile>
+void render_tiles(int width, int height, bool quiet, MakeState&& make_state,
+                  ShadePixel&& shade_pixel, EndTile&& end_tile) {
     constexpr int kTile = 16;
-    const int threads = thread_count(settings);
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0};
     Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
-    const Timer timer;
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
         for (int tile = range.begin(); tile != range.end(); ++tile) {
             auto state = make_state();
-            uint64_t dropped = 0;
             const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
             for (int y = y0; y < std::min(y0 + kTile, height); ++y)
-                for (int x = x0; x < std::min(x0 + kTile, width); ++x)
-                    dropped += shade_pixel(x, y, state);
-            rays += state.rays;
-            capped += state.capped;
-            nonfinite += dropped;
+                for (int x = x0; x < std::min(x0 + kTile, width); ++x) shade_pixel(x, y, state);
+            end_tile(state);
             progress.add();
         }
     });
     progress.finish();
-    if (stats) {
-        stats->render_s = timer.seconds();
-        stats->samples = static_cast<uint64_t>(width) * height * settings.spp;
-        stats->rays = rays.load();
-        stats->nonfinite = nonfinite.load();
-        stats->capped = capped.load();
-        stats->threads = threads;
-    }
 }
 
 }  // namespace fogmap

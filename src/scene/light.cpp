@@ -1,6 +1,6 @@
 #include "scene/light.h"
 
-#include "surface/material.h"
+#include "core/sampling.h"
 
 #include <cmath>
 

@@ -23,7 +23,7 @@ MediumParams medium_params(const MediumDesc& m) {
 
 std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
     auto scene = std::make_unique<Scene>();
-    scene->desc = desc;
+    scene->camera = desc.camera;
 
     std::map<std::string, int> material_index;
     for (const auto& [name, m] : desc.materials) {
@@ -112,6 +112,7 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         scene->media.push_back(Medium::homogeneous(medium_params(m), bounds));
     }
     for (const Medium& m : scene->media) scene->bounds.extend(m.world_bounds());
+    if (!scene->bounds.empty()) scene->offset_floor = 1e-6f * glm::length(scene->bounds.extent());
     return scene;
 }
 

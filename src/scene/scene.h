@@ -1,7 +1,8 @@
 #pragma once
-// Scene: the loaded resources of a validated SceneDesc — lights, materials, the Embree scene (only
-// when there are surfaces), media with their VDB grids, and the world bounds. Immutable after
-// load_scene; shared const by all render threads.
+// Scene: the loaded resources of a validated SceneDesc — the camera, lights, materials, the Embree
+// scene (only when there are surfaces), media with their VDB grids, and the world bounds. Settings
+// are not here: each stage takes its own as arguments. Immutable after load_scene; shared const by
+// all render threads.
 
 #include "media/medium.h"
 #include "scene/light.h"
@@ -15,12 +16,14 @@
 namespace fogmap {
 
 struct Scene {
-    SceneDesc desc;
+    CameraDesc camera;
     std::vector<Light> lights;
     std::vector<Material> materials;
     std::unique_ptr<EmbreeScene> surfaces;  ///< null when the scene has no surfaces
     std::vector<Medium> media;
     Box3 bounds;  ///< surfaces, media, camera and point/spot light positions
+    /// Least distance a ray leaves a surface by (offset_point): 1e-6 of the bounds' diagonal.
+    float offset_floor = 1e-6f;
 };
 
 /// Opens mesh and VDB files and builds Embree. A homogeneous medium without "bounds" fills the

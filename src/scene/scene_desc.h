@@ -5,6 +5,7 @@
 
 #include "core/math.h"
 #include "media/march_settings.h"
+#include "surface/material.h"
 
 #include <cstdint>
 #include <map>
@@ -46,8 +47,6 @@ struct LightDesc {
     Color irradiance{1.0f};             ///< sun: W/m^2 on a surface facing the sun
     float angular_radius_deg = 0.0f;    ///< sun: 0 = a delta direction; the real sun is ~0.27
 };
-
-enum class MaterialType { Diffuse, Mirror, Glass };
 
 struct MaterialDesc {
     MaterialType type = MaterialType::Diffuse;

@@ -1,11 +1,14 @@
 #pragma once
 // Surface materials (DESIGN.md, Photons): Lambertian diffuse, perfect mirror and a smooth
-// dielectric with exact Fresnel reflectance. Plain data plus pure helpers; thread-safe.
+// dielectric with exact Fresnel reflectance, and the one specular-scattering rule every tracer
+// uses (camera paths carry radiance, photons importance-like power). Plain data plus pure
+// helpers; thread-safe.
 
 #include "core/math.h"
-#include "scene/scene_desc.h"
 
 namespace fogmap {
+
+enum class MaterialType { Diffuse, Mirror, Glass };
 
 struct Material {
     MaterialType type = MaterialType::Diffuse;
@@ -40,20 +43,35 @@ inline bool refract(const Vec3& d, const Vec3& n, float eta, Vec3* out) {
 
 inline Vec3 reflect(const Vec3& d, const Vec3& n) { return d - 2.0f * glm::dot(d, n) * n; }
 
-/// Cosine-weighted direction about unit n; pdf = cos/π.
-inline Vec3 sample_cosine_hemisphere(const Vec3& n, Vec2 u) {
-    const float r = std::sqrt(u.x);
-    const float phi = kTwoPi * u.y;
-    const Vec3 local(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0f, 1.0f - u.x)));
-    return glm::normalize(to_world(local, n));
-}
+/// What a path carries across a specular surface: camera paths carry radiance, which is
+/// compressed by (n_t/n_i)² entering a denser medium; photons carry power, which is not (Veach
+/// 1997, ch. 5: the adjoint BTDF).
+enum class Transport { Radiance, Importance };
 
-/// Uniform direction on the unit sphere; pdf = 1/(4π).
-inline Vec3 sample_uniform_sphere(Vec2 u) {
-    const float z = 1.0f - 2.0f * u.x;
-    const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-    const float phi = kTwoPi * u.y;
-    return Vec3(r * std::cos(phi), r * std::sin(phi), z);
+/// A specular bounce: the continuing ray (origin offset to the side it leaves on) and the
+/// path weight (mirror: its albedo; glass: 1, or 1/η² for radiance refracted across).
+struct SpecularScatter {
+    Ray ray;
+    Color weight{1.0f};
+};
+
+/// Scatters a path travelling along unit d that hit a specular material at p with geometric
+/// normal ng (either side): a mirror reflects; glass reflects with the Fresnel probability
+/// (u < F, u uniform in [0, 1); total internal reflection always reflects) and refracts
+/// otherwise. `offset_floor` as offset_point. Only for materials with is_specular().
+inline SpecularScatter scatter_specular(const Material& m, const Vec3& d, const Vec3& p,
+                                        const Vec3& ng, float u, Transport mode,
+                                        float offset_floor) {
+    const bool front = glm::dot(d, ng) < 0.0f;
+    const Vec3 n = front ? ng : -ng;  // faces where the path came from
+    const Ray reflected{offset_point(p, n, offset_floor), glm::normalize(reflect(d, n))};
+    if (m.type == MaterialType::Mirror) return {reflected, m.albedo};
+    const float eta = front ? m.ior : 1.0f / m.ior;
+    Vec3 wt;
+    if (u < fresnel_dielectric(-glm::dot(d, n), eta) || !refract(d, n, eta, &wt))
+        return {reflected, Color(1.0f)};
+    const float weight = mode == Transport::Radiance ? 1.0f / (eta * eta) : 1.0f;
+    return {Ray{offset_point(p, -n, offset_floor), wt}, Color(weight)};
 }
 
 }  // namespace fogmap

@@ -38,9 +38,9 @@ SceneDesc lit_medium(const MediumDesc& medium) {
 // Mean of the multiple-scattering layer for both estimators.
 std::pair<double, double> sphere_and_beam(SceneDesc d) {
     d.volume.estimator = VolumeEstimator::Sphere;
-    const double sphere = run_pipeline(d, true).aov.volume_multiple.mean();
+    const double sphere = run_pipeline(d, true).film.layer(Layer::VolumeMultiple).mean();
     d.volume.estimator = VolumeEstimator::Beam;
-    const double beam = run_pipeline(d, true).aov.volume_multiple.mean();
+    const double beam = run_pipeline(d, true).film.layer(Layer::VolumeMultiple).mean();
     return {sphere, beam};
 }
 

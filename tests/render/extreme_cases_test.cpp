@@ -266,7 +266,7 @@ std::vector<Case> tau_cases() {
         if (t <= 1e-6f) {
             // Optical depth 8e-6 across: the sky within 1e-4 relative.
             c.check = [](const PipelineResult& r, Integrator) {
-                expect_mean(r.aov.beauty, kSky, 1e-4 * kSky, "near vacuum");
+                expect_mean(r.film.beauty, kSky, 1e-4 * kSky, "near vacuum");
             };
         }
         cases.push_back(c);
@@ -298,7 +298,7 @@ std::vector<Case> density_scale_cases() {
         if (s <= 1e-9f) {
             // sigma_t = 1e-9 per unit over 2 units: vacuum to 1e-8 relative.
             c.check = [](const PipelineResult& r, Integrator) {
-                expect_mean(r.aov.beauty, kSky, 1e-5 * kSky, "density scale 1e-9");
+                expect_mean(r.film.beauty, kSky, 1e-5 * kSky, "density scale 1e-9");
             };
         }
         cases.push_back(c);
@@ -399,7 +399,7 @@ std::vector<Case> bad_voxel_cases() {
                              return d;
                          },
                          [](const PipelineResult& r, Integrator) {
-                             expect_mean(r.aov.beauty, kSky, 1e-6, "all-NaN grid = vacuum");
+                             expect_mean(r.film.beauty, kSky, 1e-6, "all-NaN grid = vacuum");
                          }});
     return cases;
 }
@@ -414,7 +414,7 @@ std::vector<Case> grid_shape_cases() {
                              return d;
                          },
                          [](const PipelineResult& r, Integrator) {
-                             expect_mean(r.aov.beauty, kSky, 1e-6, "empty grid = vacuum");
+                             expect_mean(r.film.beauty, kSky, 1e-6, "empty grid = vacuum");
                          }});
     cases.push_back(Case{"OneVoxelGrid", [](const fs::path& dir) {
                              SceneDesc d = base_scene();
@@ -449,10 +449,10 @@ std::vector<Case> albedo_and_phase_cases() {
                  return d;
              },
              [](const PipelineResult& r, Integrator integrator) {
-                 expect_mean(r.aov.beauty, kSky * std::exp(-2.0), 1e-4, "sky through absorber");
+                 expect_mean(r.film.beauty, kSky * std::exp(-2.0), 1e-4, "sky through absorber");
                  if (integrator == Integrator::Photon) {
-                     expect_all_zero(r.aov.volume_single, "volume_single at albedo 0");
-                     expect_all_zero(r.aov.volume_multiple, "volume_multiple at albedo 0");
+                     expect_all_zero(r.film.layer(Layer::VolumeSingle), "volume_single at albedo 0");
+                     expect_all_zero(r.film.layer(Layer::VolumeMultiple), "volume_multiple at albedo 0");
                  }
              }});
     // Albedo exactly 1, camera inside a homogeneous medium under a uniform sky (sun removed):
@@ -475,16 +475,16 @@ std::vector<Case> albedo_and_phase_cases() {
                          },
                          [](const PipelineResult& r, Integrator integrator) {
                              if (integrator == Integrator::Path)
-                                 expect_mean(r.aov.beauty, kSky, 1e-6, "white furnace");
+                                 expect_mean(r.film.beauty, kSky, 1e-6, "white furnace");
                              // Photon mapping is consistent, not unbiased: lookups near the
                              // walls reach outside the medium, where there are no photons, so
                              // the estimate is low (measured 0.479, -4%, with these budgets).
                              // A regression bound, not a standard-error test: within 10%.
                              else
-                                 EXPECT_NEAR(r.aov.beauty.mean(), kSky, 0.1 * kSky)
-                                     << "photon furnace: direct " << r.aov.direct.mean()
-                                     << " single " << r.aov.volume_single.mean() << " multiple "
-                                     << r.aov.volume_multiple.mean();
+                                 EXPECT_NEAR(r.film.beauty.mean(), kSky, 0.1 * kSky)
+                                     << "photon furnace: direct " << r.film.layer(Layer::Direct).mean()
+                                     << " single " << r.film.layer(Layer::VolumeSingle).mean() << " multiple "
+                                     << r.film.layer(Layer::VolumeMultiple).mean();
                          }});
     // Albedo exactly 1 and optical depth 1e3 to the walls: paths would need ~1e6 vertices to
     // escape; max_depth (16) and max_bounces (32) end them. The cut energy shows as an image
@@ -499,7 +499,7 @@ std::vector<Case> albedo_and_phase_cases() {
                              return d;
                          },
                          [](const PipelineResult& r, Integrator) {
-                             EXPECT_LT(r.aov.beauty.mean(), 0.5 * kSky)
+                             EXPECT_LT(r.film.beauty.mean(), 0.5 * kSky)
                                  << "the depth cap removes energy here";
                          }});
     for (float g : {0.999f, -0.999f}) {
@@ -642,9 +642,9 @@ TEST_P(ExtremeCase, FinitePixelsInBoundedTimeOrInputError) {
     if (total_s > 1.0)
         std::printf("%s:%s photons emitted %llu\n", name.c_str(), phases.c_str(),
                     static_cast<unsigned long long>(result.report.photons_emitted));
-    expect_finite(result.aov.beauty, name + " beauty");
-    if (result.layered) {
-        for (const NamedImage& layer : result.aov.layers())
+    expect_finite(result.film.beauty, name + " beauty");
+    if (result.film.layered()) {
+        for (const NamedImage& layer : result.film.named_layers())
             expect_finite(*layer.image, name + " " + layer.name);
     }
     EXPECT_EQ(result.report.nonfinite, 0u) << name << ": samples dropped as NaN/Inf";

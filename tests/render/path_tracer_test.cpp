@@ -6,6 +6,7 @@
 
 #include "render/path_tracer.h"
 
+#include "core/parallel.h"
 #include "media/volume_gen.h"
 #include "scene/scene.h"
 
@@ -259,16 +260,21 @@ TEST(Determinism, OneAndTwoThreadsGiveIdenticalPixels) {
     RenderSettings rs;
     rs.spp = 4;
     rs.seed = 9;
-    rs.threads = 1;
-    const Image one = render_path(*scene, rs, true, nullptr);
-    rs.threads = 2;
-    const Image two = render_path(*scene, rs, true, nullptr);
+    Image one, two;
+    {
+        const ThreadLimit limit(1);
+        one = render_path(*scene, rs, true, nullptr).beauty;
+    }
+    {
+        const ThreadLimit limit(2);
+        two = render_path(*scene, rs, true, nullptr).beauty;
+    }
     ASSERT_EQ(one.pixels.size(), two.pixels.size());
     EXPECT_EQ(0,
               std::memcmp(one.pixels.data(), two.pixels.data(), one.pixels.size() * sizeof(Color)));
     EXPECT_GT(one.mean(), 0.0);
     rs.seed = 10;  // and the seed matters
-    const Image other = render_path(*scene, rs, true, nullptr);
+    const Image other = render_path(*scene, rs, true, nullptr).beauty;
     EXPECT_NE(
         0, std::memcmp(one.pixels.data(), other.pixels.data(), one.pixels.size() * sizeof(Color)));
 }

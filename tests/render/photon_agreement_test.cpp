@@ -35,7 +35,7 @@ void check_agreement(const AgreementCase& c) {
     std::vector<std::string> ref_overrides = size;
     ref_overrides.push_back("render.integrator=\"path\"");
     ref_overrides.push_back("render.spp=" + std::to_string(c.reference_spp));
-    const Image reference = run_pipeline(load_scene_desc(path, ref_overrides), true).aov.beauty;
+    const Image reference = run_pipeline(load_scene_desc(path, ref_overrides), true).film.beauty;
 
     double previous = 1e30, mean = 0.0;
     for (int level = 0; level < 3; ++level) {
@@ -48,7 +48,7 @@ void check_agreement(const AgreementCase& c) {
         o.push_back("photons.global=" + std::to_string(n / 4));
         o.push_back("volume.k=" + std::to_string(k));
         o.push_back("global.k=" + std::to_string(2 * k));
-        const Image image = run_pipeline(load_scene_desc(path, o), true).aov.beauty;
+        const Image image = run_pipeline(load_scene_desc(path, o), true).film.beauty;
         const ImageError e = image_error(image, reference);
         EXPECT_LT(e.rel_mse, previous) << c.scene << ": " << n << " volume photons";
         previous = e.rel_mse;
@@ -76,10 +76,10 @@ TEST(PhotonDeterminism, OneAndTwoThreadsGiveIdenticalAovs) {
                                    "render.spp=2",        "photons.volume=20000",
                                    "photons.global=5000", "photons.caustic=5000",
                                    "render.threads=1"};
-        const AovImages one = run_pipeline(load_scene_desc(path, o), true).aov;
+        const Film one = run_pipeline(load_scene_desc(path, o), true).film;
         o.back() = "render.threads=2";
-        const AovImages two = run_pipeline(load_scene_desc(path, o), true).aov;
-        const std::vector<NamedImage> a = one.layers(), b = two.layers();
+        const Film two = run_pipeline(load_scene_desc(path, o), true).film;
+        const std::vector<NamedImage> a = one.named_layers(), b = two.named_layers();
         for (size_t l = 0; l < a.size(); ++l)
             EXPECT_EQ(0, std::memcmp(a[l].image->pixels.data(), b[l].image->pixels.data(),
                                      a[l].image->pixels.size() * sizeof(Color)))

@@ -3,8 +3,9 @@
 // against a path-traced reference falls over the iterations on smoke.json, and the photon memory
 // of an iteration does not grow with the iteration count.
 
-#include "render/progressive.h"
+#include "render/gather_params.h"
 #include "render/metrics.h"
+#include "render/pipeline.h"
 #include "scene/scene_desc_json.h"
 
 #include <gtest/gtest.h>
@@ -14,11 +15,10 @@ namespace {
 
 TEST(Progressive, RadiusSequenceFollowsKnausZwicker) {
     const double alpha = 0.7, r1 = 0.5;
-    float r2 = static_cast<float>(r1), r3 = static_cast<float>(r1);
     double product = 1.0;  // Π_{j=1}^{i-1} (j+α)/(j+1)
     for (int i = 1; i < 50; ++i) {
-        r2 = next_radius(r2, i, static_cast<float>(alpha), 2);
-        r3 = next_radius(r3, i, static_cast<float>(alpha), 3);
+        const float r2 = progressive_radius(static_cast<float>(r1), i + 1, float(alpha), 2);
+        const float r3 = progressive_radius(static_cast<float>(r1), i + 1, float(alpha), 3);
         product *= (i + alpha) / (i + 1.0);
         EXPECT_NEAR(r2 * r2, r1 * r1 * product, 1e-5 * r1 * r1) << "iteration " << i + 1;
         EXPECT_NEAR(double(r3) * r3 * r3, r1 * r1 * r1 * product, 1e-5 * r1 * r1 * r1);
@@ -31,14 +31,14 @@ TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysFlat) {
     std::vector<std::string> ref = size;
     ref.push_back("render.integrator=\"path\"");
     ref.push_back("render.spp=2048");
-    const Image reference = run_pipeline(load_scene_desc(path, ref), true).aov.beauty;
+    const Image reference = run_pipeline(load_scene_desc(path, ref), true).film.beauty;
 
     std::vector<std::string> o = size;
     o.push_back("render.spp=2");
     o.push_back("photons.volume=20000");
     o.push_back("photons.global=5000");
     o.push_back("progressive.iterations=8");
-    const ProgressiveResult r = run_progressive(load_scene_desc(path, o), &reference, true);
+    const Report r = run_pipeline(load_scene_desc(path, o), true, &reference).report;
     ASSERT_EQ(r.iterations.size(), 8u);
     // Each iteration's image is independent, so the running mean's variance falls like 1/i
     // while the shrinking radius lowers the bias: compare iterations 1, 2, 4 and 8.
@@ -46,7 +46,7 @@ TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysFlat) {
         EXPECT_LT(r.iterations[i].rel_mse, r.iterations[i / 2].rel_mse) << "iteration " << i + 1;
     EXPECT_LT(r.iterations[7].rel_mse, 0.5 * r.iterations[0].rel_mse);
     const size_t first = r.iterations[0].photon_bytes;
-    for (const ProgressiveIteration& it : r.iterations) {
+    for (const IterationReport& it : r.iterations) {
         EXPECT_GT(it.photon_bytes, 0u);
         EXPECT_LE(it.photon_bytes, first + first / 100) << "iteration " << it.index;
         EXPECT_LT(it.radii.volume, r.iterations[0].radii.volume * 1.0001f);

@@ -38,7 +38,7 @@ TEST_P(SharedVolume, RendersFiniteAndAttenuatesTheSky) {
     const auto scene = load_scene(d);
     RenderSettings rs;
     rs.spp = 4;
-    const Image img = render_path(*scene, rs, true, nullptr);
+    const Image img = render_path(*scene, rs, true, nullptr).beauty;
     float darkest = 1.0f;
     for (const Color& c : img.pixels) {
         ASSERT_TRUE(is_finite(c));

@@ -57,12 +57,13 @@ struct MeanEstimate {
 MeanEstimate single_scatter_mean(const SceneDesc& d, int n) {
     const auto scene = load_scene(d);
     const PhotonMaps maps;
-    const PhotonIntegrator integrator(*scene, maps);
+    const PhotonIntegrator integrator(*scene, maps, gather_params(d, *scene, maps, false), d.march,
+                                      d.render.max_depth);
     PhotonIntegrator::ThreadState ts = integrator.make_state();
     double sum = 0.0, sum2 = 0.0;
     for (int i = 0; i < n; ++i) {
         Rng rng(5, i);
-        const double v = integrator.radiance(kRay, rng, ts).volume_single.x;
+        const double v = integrator.radiance(kRay, rng, ts)[Layer::VolumeSingle].x;
         sum += v;
         sum2 += v * v;
     }

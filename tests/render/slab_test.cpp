@@ -9,10 +9,10 @@
 
 #include "slab_checks.h"
 
+#include "core/parallel.h"
 #include "media/ray_march.h"
 
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -75,11 +75,11 @@ TEST(SlabValidation, ResultDoesNotDependOnThreadCount) {
     const SlabSettings s = settings(2.0, 0.9, 0.75, FreePathMethod::March, 20000);
     SlabResult one, two;
     {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+        const ThreadLimit limit(1);
         one = run_slab(s);
     }
     {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+        const ThreadLimit limit(2);
         two = run_slab(s);
     }
     EXPECT_EQ(one.rd.mean, two.rd.mean);

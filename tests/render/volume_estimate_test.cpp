@@ -91,7 +91,7 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
         for (int seed = 0; seed < kSeeds; ++seed) {
             d.render.seed = 100 + seed;
             const auto s = load_scene(d);
-            PhotonMaps maps = build_trees(trace_photons(*s, make_plan(d), true));
+            PhotonMaps maps = build_trees(trace_photons(*s, make_plan(d), d.photons, d.march, d.render.seed, true));
             ASSERT_TRUE(maps.volume.has_value());
             NeighborList scratch;
             for (size_t i = 0; i < points.size(); ++i)

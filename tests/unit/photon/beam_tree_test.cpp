@@ -5,6 +5,8 @@
 
 #include "photon/beam_tree.h"
 
+#include "core/sampling.h"
+
 #include "core/rng.h"
 
 #include <gtest/gtest.h>

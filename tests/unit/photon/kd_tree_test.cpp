@@ -9,11 +9,11 @@
 
 #include "photon/kd_tree.h"
 
+#include "core/parallel.h"
 #include "core/rng.h"
 #include "photon/photon.h"
 
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -378,11 +378,11 @@ TEST(KdTree, BuildIsIdenticalForOneAndTwoThreads) {
     const std::vector<Photon> photons = to_photons(surface_points(300000, 10));
     std::vector<Photon> serial, parallel;
     {
-        tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+        const ThreadLimit threads(1);
         serial = KdTree<Photon>(photons).records();
     }
     {
-        tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 2);
+        const ThreadLimit threads(2);
         parallel = KdTree<Photon>(photons).records();
     }
     ASSERT_EQ(serial.size(), parallel.size());

@@ -5,10 +5,10 @@
 
 #include "photon/photon_pass.h"
 
+#include "core/parallel.h"
 #include "photon/estimators.h"
 
 #include <gtest/gtest.h>
-#include <tbb/global_control.h>
 
 #include <cstring>
 
@@ -52,7 +52,7 @@ TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
     ASSERT_FALSE(plan.global_map.on);
     ASSERT_FALSE(plan.caustic_map.on);
     EXPECT_EQ(scene->surfaces, nullptr);  // no Embree scene either
-    const PhotonPassResult r = trace_photons(*scene, plan, true);
+    const PhotonPassResult r = trace_photons(*scene, plan, d.photons, d.march, d.render.seed, true);
     EXPECT_FALSE(r.global.has_value());
     EXPECT_FALSE(r.caustic.has_value());
     ASSERT_TRUE(r.volume.has_value());
@@ -61,7 +61,7 @@ TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
     d.photons.volume = 0;  // budget 0: the plan turns the map off and nothing is traced
     const Plan off = make_plan(d);
     EXPECT_FALSE(off.volume_map.on);
-    const PhotonPassResult none = trace_photons(*load_scene(d), off, true);
+    const PhotonPassResult none = trace_photons(*load_scene(d), off, d.photons, d.march, d.render.seed, true);
     EXPECT_FALSE(none.volume.has_value());
     EXPECT_EQ(none.emitted, 0u);
 }
@@ -79,12 +79,12 @@ TEST(PhotonPass, OneAndTwoThreadsStoreIdenticalPhotons) {
     const Plan plan = make_plan(d);
     PhotonPassResult one, two;
     {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-        one = trace_photons(*scene, plan, true);
+        const ThreadLimit limit(1);
+        one = trace_photons(*scene, plan, d.photons, d.march, d.render.seed, true);
     }
     {
-        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-        two = trace_photons(*scene, plan, true);
+        const ThreadLimit limit(2);
+        two = trace_photons(*scene, plan, d.photons, d.march, d.render.seed, true);
     }
     for (auto [a, b] : {std::pair{&one.volume, &two.volume}, std::pair{&one.global, &two.global}}) {
         ASSERT_TRUE(a->has_value() && b->has_value());
@@ -105,7 +105,7 @@ TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
         quad(Vec3(-1.0f, 0.0f, -1.0f), Vec3(0.0f, 0.0f, 2.0f), Vec3(2.0f, 0.0f, 0.0f), "floor"));
     d.photons.global = 100;
     d.photons.max_emitted = 50000;
-    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), true);
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
     EXPECT_EQ(r.emitted, 50000u);
     ASSERT_TRUE(r.global.has_value());
     EXPECT_EQ(r.global->photons.size(), 0u);
@@ -134,7 +134,7 @@ TEST(PhotonPass, BounceCapCountsEveryPathItCuts) {
     d.photons.max_bounces = 1;
     d.photons.max_emitted = 200000;
     d.march.method = FreePathMethod::Delta;
-    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), true);
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
     ASSERT_EQ(r.emitted, 200000u);
     double expected = 0.0;
     const int n = 200000;
@@ -176,7 +176,7 @@ TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
     for (uint64_t n : {4000u, 16000u, 64000u}) {
         d.photons.caustic = n;
         const auto scene = load_scene(d);
-        PhotonMaps maps = build_trees(trace_photons(*scene, make_plan(d), true));
+        PhotonMaps maps = build_trees(trace_photons(*scene, make_plan(d), d.photons, d.march, d.render.seed, true));
         ASSERT_TRUE(maps.caustic.has_value());
         NeighborList scratch;
         double error = 0.0, sum = 0.0;

@@ -1,0 +1,137 @@
+#pragma once
+// The image side of every integrator: the output layers (one enumeration and its name table,
+// in EXR order), one camera sample's radiance split into them, the film that accumulates pixel
+// means, the render statistics, and the per-pixel sample loop every integrator runs (pixel key,
+// N-rooks position, the sample's Rng(seed, pixel, s), non-finite samples dropped, the mean).
+// A layered film's beauty is the sum of its layers; an unlayered one holds beauty alone.
+// Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
+
+#include "core/image.h"
+#include "core/parallel.h"
+#include "core/rng.h"
+#include "core/timer.h"
+#include "render/camera.h"
+#include "render/tiles.h"
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+namespace fogmap {
+
+/// Additive parts of the beauty image, each its own EXR layer. A new layer: one enumerator and
+/// its name below.
+enum class Layer { Direct, VolumeSingle, VolumeMultiple, Caustic, Indirect };
+inline constexpr int kLayerCount = 5;
+/// EXR layer names, in Layer order.
+inline constexpr std::array<const char*, kLayerCount> kLayerNames{
+    "direct", "volume_single", "volume_multiple", "caustic", "indirect"};
+
+/// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
+struct FilmSample {
+    std::array<Color, kLayerCount> layers{};
+    Color beauty{0.0f};  ///< unlayered integrators only
+    Color& operator[](Layer l) { return layers[static_cast<int>(l)]; }
+    Color layer_sum() const {
+        Color sum(0.0f);
+        for (const Color& c : layers) sum += c;
+        return sum;
+    }
+};
+
+struct RenderStats {
+    double render_s = 0.0;   ///< wall time of the render pass
+    uint64_t samples = 0;    ///< camera samples traced
+    uint64_t rays = 0;       ///< Embree queries (closest hit + occlusion)
+    uint64_t nonfinite = 0;  ///< samples dropped because they were NaN or infinite
+    uint64_t capped = 0;     ///< samples whose path render.max_depth cut while it carried light
+    int threads = 0;         ///< worker threads used
+};
+
+/// Pixel means: beauty, and for a layered film one image per Layer (beauty = their sum).
+struct Film {
+    Image beauty;
+    std::vector<Image> layers;  ///< kLayerCount images, or none
+
+    Film() = default;
+    Film(int width, int height, bool layered)
+        : beauty(width, height), layers(layered ? kLayerCount : 0, Image(width, height)) {}
+    bool layered() const { return !layers.empty(); }
+    const Image& layer(Layer l) const { return layers[static_cast<int>(l)]; }
+    /// The EXR's extra layers, named (none for an unlayered film).
+    std::vector<NamedImage> named_layers() const {
+        std::vector<NamedImage> out;
+        for (size_t l = 0; l < layers.size(); ++l) out.push_back({kLayerNames[l], &layers[l]});
+        return out;
+    }
+    /// Adds `other` (same size and layers) pixel by pixel; an empty film takes its shape.
+    void add(const Film& other) {
+        if (beauty.pixels.empty()) {
+            *this = other;
+            return;
+        }
+        auto add_image = [](Image& to, const Image& from) {
+            for (size_t i = 0; i < from.pixels.size(); ++i) to.pixels[i] += from.pixels[i];
+        };
+        add_image(beauty, other.beauty);
+        for (size_t l = 0; l < layers.size(); ++l) add_image(layers[l], other.layers[l]);
+    }
+    void scale(float s) {
+        for (Color& c : beauty.pixels) c *= s;
+        for (Image& img : layers)
+            for (Color& c : img.pixels) c *= s;
+    }
+};
+
+/// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image, spp samples
+/// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
+/// uniforms, then trace(ray, rng, state) -> FilmSample; non-finite samples are dropped (counted)
+/// and the film holds the mean over spp. state = make_state() per tile; state.rays and
+/// state.capped are summed into *stats (may be null).
+template <class MakeState, class Trace>
+Film render_film(const Camera& camera, int spp, uint64_t seed, bool layered, bool quiet,
+                 RenderStats* stats, MakeState&& make_state, Trace&& trace) {
+    const int w = camera.width(), h = camera.height();
+    Film film(w, h, layered);
+    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0};
+    const float inv = 1.0f / static_cast<float>(spp);
+    const Timer timer;
+    auto shade = [&](int x, int y, auto& state) {
+        FilmSample sum;
+        uint64_t dropped = 0;
+        const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+        const uint64_t jitter_key = pixel_key(seed, pixel);
+        for (int s = 0; s < spp; ++s) {
+            Rng rng(seed, pixel, static_cast<uint64_t>(s));
+            const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
+            const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state);
+            if (!is_finite(layered ? c.layer_sum() : c.beauty)) {
+                ++dropped;
+                continue;
+            }
+            if (!layered) sum.beauty += c.beauty;
+            for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
+        }
+        film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
+        for (int l = 0; layered && l < kLayerCount; ++l)
+            film.layers[l].at(x, y) = sum.layers[l] * inv;
+        if (dropped) nonfinite += dropped;
+    };
+    auto end_tile = [&](const auto& state) {
+        rays += state.rays;
+        capped += state.capped;
+    };
+    render_tiles(w, h, quiet, make_state, shade, end_tile);
+    if (stats) {
+        stats->render_s = timer.seconds();
+        stats->samples = static_cast<uint64_t>(w) * h * spp;
+        stats->rays = rays.load();
+        stats->nonfinite = nonfinite.load();
+        stats->capped = capped.load();
+        stats->threads = active_thread_count();
+    }
+    return film;
+}
+
+}  // namespace fogmap
