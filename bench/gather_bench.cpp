@@ -1,26 +1,24 @@
 // The volume gather of one camera ray through the volume map, per estimator, on the same photons
 // and the same rays (one thread):
 //   march_only         the camera march alone (σ sampling, transmittance): the cost all share,
-//   sphere_every_step  march + volume_inscattered (k-NN sphere estimate) at every step,
+//   sphere_every_step  march + the k-NN sphere estimate at every step (volume.lookups_per_ray 0),
 //   sphere_8_lookups   march + 8 lookups at steps drawn by stratified importance sampling of the
 //                      march weights (the integrator's default, volume.lookups_per_ray = 8),
-//   beam               march for the optical-depth table + one BeamTree::for_each_hit per ray.
-// These are the integrator's multiple-scattering terms (photon_integrator.cpp) without shadow
-// rays. Scenes (bench_volumes.h): the Disney cloud (1/16) with 100k volume photons and smoke1
-// with 20k, k = 50, radius 5% of the grid's diagonal (the scene defaults). Rays: a pinhole fan
-// from two grid extents away on +z towards random points of the grid's bounds; fixed seeds.
-// ns per ray in thread CPU time; beam sets `speedup_vs_<sphere variant>`; mean_L (luminance of
-// the estimate per ray) shows the estimators agree.
+//   beam               march + one BeamTree::for_each_hit per ray.
+// Each runs render/volume_gather.h's multiple scattering, the code the photon integrator runs,
+// without shadow rays. Scenes (bench_volumes.h): the Disney cloud (1/16) with 100k volume photons
+// and smoke1 with 20k, k = 50, radius 5% of the grid's diagonal (the scene defaults). Rays: a
+// pinhole fan from two grid extents away on +z towards random points of the grid's bounds; fixed
+// seeds. ns per ray in thread CPU time; beam sets `speedup_vs_<sphere variant>`; mean_L (luminance
+// of the estimate per ray) shows the estimators agree.
 
 #include "bench_volumes.h"
 #include "core/rng.h"
 #include "core/timer.h"
-#include "media/henyey_greenstein.h"
-#include "media/ray_march.h"
 #include "photon/beam_tree.h"
-#include "photon/estimators.h"
 #include "photon/photon_pass.h"
-#include "render/photon_integrator.h"
+#include "render/gather_params.h"
+#include "render/volume_gather.h"
 #include "scene/plan.h"
 
 #include <benchmark/benchmark.h>
@@ -62,9 +60,8 @@ struct Fixture {
     VdbScene vs;
     const Scene* scene = nullptr;
     PhotonMaps maps;
+    GatherParams gather;
     std::unique_ptr<BeamTree> beam;
-    std::unique_ptr<RayMarcher> marcher;
-    float radius = 0.0f;
     double beam_build_s = 0.0;
     std::vector<Ray> rays;
 };
@@ -81,11 +78,11 @@ const Fixture& fixture(const std::string& vdb) {
     const SceneDesc& d = f->vs.desc;
     f->maps = build_trees(
         trace_photons(*f->scene, make_plan(d), d.photons, d.march, d.render.seed, /*quiet=*/true));
-    f->radius = gather_params(d, *f->scene, f->maps, false).volume.radius;
+    f->gather = gather_params(d, *f->scene, f->maps, false);
+    f->gather.volume.k = kK;
     const Timer timer;
-    f->beam = std::make_unique<BeamTree>(*f->maps.volume, kK, f->radius);
+    f->beam = std::make_unique<BeamTree>(*f->maps.volume, kK, f->gather.volume.radius);
     f->beam_build_s = timer.seconds();
-    f->marcher = std::make_unique<RayMarcher>(f->scene->media, d.march);
     const Box3 box = f->scene->media[0].world_bounds();
     const Vec3 eye = box.center() + Vec3(0.0f, 0.0f, 2.0f * max_component(box.extent()));
     Rng rng(kSeed, 0);
@@ -98,101 +95,22 @@ const Fixture& fixture(const std::string& vdb) {
     return *g_fixture;
 }
 
-struct LitStep {
-    Vec3 x;
-    Color weight, sigma_s;
-};
-struct DepthStep {
-    float t0, t1;
-    Color tau0, sigma_t;
-};
+/// The gather of one estimate: the integrator's VolumeGather with that estimator's settings.
+VolumeGather make_gather(const Fixture& f, Estimate e) {
+    GatherParams p = f.gather;
+    p.estimator = e == Estimate::Beam ? VolumeEstimator::Beam : VolumeEstimator::Sphere;
+    p.lookups_per_ray = e == Estimate::Sphere8 ? kLookups : 0;
+    return VolumeGather(*f.scene, f.vs.desc.march, p, &*f.maps.volume, f.beam.get());
+}
 
-/// Per-thread state, as PhotonIntegrator::ThreadState.
-struct Gatherer {
-    const Fixture& f;
-    std::vector<Medium::Sampler> samplers;
-    NeighborList neighbors;
-    std::vector<LitStep> steps;
-    std::vector<DepthStep> depth;
-    uint64_t queries = 0;  ///< volume_inscattered calls, or photons the beam visited
-
-    explicit Gatherer(const Fixture& fixture) : f(fixture) {
-        for (const Medium& m : f.scene->media) samplers.emplace_back(m);
-    }
-
-    /// The multiple-scattering radiance along `ray` (photon_integrator.cpp's radiance(), media
-    /// part, throughput 1).
-    Color radiance(const Ray& ray, Estimate e, Rng& rng) {
-        const PhotonMap& map = *f.maps.volume;
-        const float g = f.scene->media[0].params().g;
-        Color tau(0.0f);
-        steps.clear();
-        depth.clear();
-        const bool beam = e == Estimate::Beam;
-        f.marcher->march(samplers, ray, kInfinity, rng.uniform(), [&](const MarchStep& s) {
-            const float h = s.t1 - s.t0;
-            if (!beam && max_component(s.sigma_s) > 0.0f)
-                steps.push_back({s.x, exp_neg(tau) * step_weight(s.sigma_t, h), s.sigma_s});
-            if (beam) depth.push_back({s.t0, s.t1, tau, s.sigma_t});
-            tau += s.sigma_t * h;
-            return max_component(exp_neg(tau)) > 1e-6f;
-        });
-        Color sum(0.0f);
-        auto gather = [&](const LitStep& st, float factor) {
-            ++queries;
-            sum += factor * st.weight *
-                   volume_inscattered(map, st.x, -ray.d, g, kK, f.radius, neighbors);
-        };
-        switch (e) {
-            case Estimate::MarchOnly:
-                sum = tau;  // kept, so the march is not optimised away
-                break;
-            case Estimate::SphereEveryStep:
-                for (const LitStep& st : steps) gather(st, 1.0f);
-                break;
-            case Estimate::Sphere8: {
-                const size_t n = steps.size(), m = kLookups;
-                if (n <= m) {
-                    for (const LitStep& st : steps) gather(st, 1.0f);
-                    break;
-                }
-                double total = 0.0;
-                for (const LitStep& st : steps) total += luminance(st.weight * st.sigma_s);
-                if (!(total > 0.0)) break;
-                size_t k = 0;
-                double cumulative = luminance(steps[0].weight * steps[0].sigma_s);
-                for (size_t j = 0; j < m; ++j) {
-                    const double target = (j + rng.uniform()) * total / m;
-                    while (cumulative < target && k + 1 < n) {
-                        ++k;
-                        cumulative += luminance(steps[k].weight * steps[k].sigma_s);
-                    }
-                    const double q = luminance(steps[k].weight * steps[k].sigma_s);
-                    if (q > 0.0) gather(steps[k], static_cast<float>(total / (m * q)));
-                }
-                break;
-            }
-            case Estimate::Beam: {
-                if (depth.empty()) break;
-                f.beam->for_each_hit(ray, depth.front().t0, depth.back().t1,
-                                     [&](const BeamTree::Record& p, float t, float kernel) {
-                                         ++queries;
-                                         const auto it = std::upper_bound(
-                                             depth.begin(), depth.end(), t,
-                                             [](float v, const DepthStep& s) { return v < s.t1; });
-                                         if (it == depth.end()) return;
-                                         const Color tau_t =
-                                             it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
-                                         sum += hg_phase(glm::dot(p.direction, -ray.d), g) *
-                                                kernel * exp_neg(tau_t) * p.power;
-                                     });
-                sum *= map.photon_power;
-                break;
-            }
-        }
-        return sum;
-    }
-};
+/// Multiple-scattering radiance along `ray` (throughput 1) for estimate e, or for march_only the
+/// optical depth (kept, so the march is not optimised away).
+Color gather_radiance(const VolumeGather& gather, const Ray& ray, Estimate e, Rng& rng,
+                      VolumeGather::State& st) {
+    const Color tau = gather.march(ray, kInfinity, Color(1.0f), rng.uniform(), st);
+    if (e == Estimate::MarchOnly) return tau;
+    return gather.multiple_scattering(ray, Color(1.0f), rng, st);
+}
 
 double thread_cpu_seconds() {
     timespec ts;
@@ -209,14 +127,15 @@ void bm_gather(benchmark::State& state, std::string vdb, Estimate e) {
         return;
     }
     const Fixture& f = fixture(vdb);
-    Gatherer gatherer(f);
+    const VolumeGather gather = make_gather(f, e);
+    VolumeGather::State st = gather.make_state();
     double seconds = 0.0, sum_l = 0.0;
     int64_t rays = 0;
     for (auto _ : state) {
         const double t0 = thread_cpu_seconds();
         for (size_t i = 0; i < f.rays.size(); ++i) {
             Rng rng(kSeed, 1 + i);  // the same jitter for every estimate
-            sum_l += luminance(gatherer.radiance(f.rays[i], e, rng));
+            sum_l += luminance(gather_radiance(gather, f.rays[i], e, rng, st));
         }
         seconds += thread_cpu_seconds() - t0;
         rays += static_cast<int64_t>(f.rays.size());
@@ -230,7 +149,7 @@ void bm_gather(benchmark::State& state, std::string vdb, Estimate e) {
     if (e == Estimate::MarchOnly) return;
     state.counters["mean_L"] = sum_l / static_cast<double>(rays);
     state.counters[e == Estimate::Beam ? "photons_per_ray" : "lookups_per_ray"] =
-        static_cast<double>(gatherer.queries) / static_cast<double>(rays);
+        static_cast<double>(st.queries) / static_cast<double>(rays);
     if (const auto it = row.find(Estimate::MarchOnly); it != row.end())
         state.counters["estimate_ns_per_ray"] = ns - it->second;
     if (e != Estimate::Beam) return;

@@ -1,7 +1,5 @@
 #include "photon/estimators.h"
 
-#include "media/henyey_greenstein.h"
-
 namespace fogmap {
 
 namespace {
@@ -56,8 +54,8 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
     return sum * (map.photon_power / (kPi * r2 * norm));
 }
 
-Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, float g, int k,
-                         float r_max, NeighborList& scratch) {
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,
+                         const PhaseMix& phase, int k, float r_max, NeighborList& scratch) {
     find(map, x, k, r_max, scratch);
     if (scratch.empty()) return Color(0.0f);
     const float r2 = estimate_radius2(scratch, k, r_max);
@@ -68,7 +66,7 @@ Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, fl
     for (size_t i = 0; i < scratch.size(); ++i) {
         if (i == skip) continue;
         const Photon& p = photons[scratch[i].index];
-        sum += hg_phase(glm::dot(p.direction(), wo), g) * p.power();
+        sum += phase.eval(glm::dot(p.direction(), wo)) * p.power();
     }
     const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
     return sum * (map.photon_power / volume);

@@ -7,6 +7,7 @@
 // estimate of the in-scattered radiance σ_s L_i = Σ p ΔΦ / ((4/3) π r³). Photon power = relative
 // RGBE power × the map's photon_power. Thread-safe given a NeighborList per thread.
 
+#include "media/phase.h"
 #include "photon/photon_pass.h"
 
 namespace fogmap {
@@ -17,9 +18,9 @@ namespace fogmap {
 Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
                          float cone_kf, uint8_t skip_flags, NeighborList& scratch);
 
-/// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the
-/// Henyey–Greenstein phase g applied to each photon's travel direction.
-Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, float g, int k,
-                         float r_max, NeighborList& scratch);
+/// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
+/// function at x applied to each photon's travel direction.
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,
+                         const PhaseMix& phase, int k, float r_max, NeighborList& scratch);
 
 }  // namespace fogmap

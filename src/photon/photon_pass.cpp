@@ -3,7 +3,7 @@
 #include "core/progress.h"
 #include "core/sampling.h"
 #include "core/timer.h"
-#include "media/henyey_greenstein.h"
+#include "media/phase.h"
 #include "media/ray_march.h"
 
 #include <tbb/blocked_range.h>
@@ -35,25 +35,10 @@ struct Emitter {
 }  // namespace
 
 PhotonTracer::PhotonTracer(const Scene& scene, const MarchSettings& march, int max_bounces)
-    : scene_(scene), marcher_(scene.media, march), method_(march.method), max_bounces_(max_bounces) {}
-
-// Henyey–Greenstein g at x: the medium chosen in proportion to its scattering there.
-float PhotonTracer::choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x,
-                             Rng& rng) const {
-    if (samplers.size() == 1) return samplers[0].medium().params().g;
-    std::array<float, kMaxMedia> w;
-    float sum = 0.0f;
-    for (size_t i = 0; i < samplers.size(); ++i) {
-        w[i] = samplers[i].density(x) * average(samplers[i].medium().params().sigma_s);
-        sum += w[i];
-    }
-    float u = rng.uniform() * sum;
-    for (size_t i = 0; i < samplers.size(); ++i) {
-        if (u < w[i]) return samplers[i].medium().params().g;
-        u -= w[i];
-    }
-    return samplers.back().medium().params().g;
-}
+    : scene_(scene),
+      marcher_(scene.media, march),
+      method_(march.method),
+      max_bounces_(max_bounces) {}
 
 TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                std::vector<Medium::Sampler>& samplers, uint32_t index,
@@ -105,9 +90,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
             }
             if (scattered) {
                 float pdf;
-                const float g = choose_g(samplers, x, rng);
-                const Vec3 d = hg_sample(ray.d, g, Vec2(rng.uniform(), rng.uniform()), &pdf);
-                ray = Ray{x, d};
+                ray = Ray{x, PhaseMix(samplers, x).sample(ray.d, rng, &pdf)};
                 specular_chain = false;
                 continue;
             }

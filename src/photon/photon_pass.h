@@ -91,8 +91,6 @@ public:
     const RayMarcher& marcher() const { return marcher_; }
 
 private:
-    float choose_g(std::vector<Medium::Sampler>& samplers, const Vec3& x, Rng& rng) const;
-
     const Scene& scene_;
     RayMarcher marcher_;
     FreePathMethod method_;

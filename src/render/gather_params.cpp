@@ -1,8 +1,8 @@
 #include "render/gather_params.h"
 
 #include <algorithm>
-#include <utility>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 namespace fogmap {
@@ -41,10 +41,10 @@ GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const Phot
     for (const Medium& m : scene.media) media.extend(m.world_bounds());
     const float media_diag = media.empty() ? diag : glm::length(media.extent());
     GatherParams p;
-    p.global = map_gather(desc.global.k, desc.global.radius, 0.02f * diag, first.global,
-                          progressive);
-    p.caustic = map_gather(desc.caustic.k, desc.caustic.radius, 0.01f * diag, first.caustic,
-                           progressive);
+    p.global =
+        map_gather(desc.global.k, desc.global.radius, 0.02f * diag, first.global, progressive);
+    p.caustic =
+        map_gather(desc.caustic.k, desc.caustic.radius, 0.01f * diag, first.caustic, progressive);
     p.volume = map_gather(desc.volume.k, desc.volume.radius, 0.05f * media_diag, first.volume,
                           progressive);
     p.final_gather = desc.global.final_gather;

@@ -26,7 +26,7 @@ struct GatherParams {
     float cone_filter = 0.0f;   ///< caustic: Jensen's k_f; 0 = box filter
     VolumeEstimator estimator = VolumeEstimator::Sphere;
     int lookups_per_ray = 8;  ///< volume-map lookups per camera segment; 0 = every step
-    int light_samples = 4;    ///< single-scattering shadow rays per light and segment; 0 = every step
+    int light_samples = 4;  ///< single-scattering shadow rays per light and segment; 0 = every step
 };
 
 /// Iteration 1's gather. Radii the scene leaves at 0 default to 2% (global) and 1% (caustic) of

@@ -1,8 +1,9 @@
 #include "render/path_tracer.h"
 
 #include "core/sampling.h"
-#include "media/henyey_greenstein.h"
+#include "media/phase.h"
 #include "render/camera.h"
+#include "render/shadow.h"
 
 #include <optional>
 
@@ -28,12 +29,11 @@ bool survive(int depth, Color* beta, Rng& rng) {
 
 }  // namespace
 
-// Either a phase function (travel direction, g) or a Lambertian lobe (normal facing the viewer).
+// Either a phase function (travel direction) or a Lambertian lobe (normal facing the viewer).
 struct PathTracer::Lobe {
-    bool phase;
-    Vec3 dir;      // phase: incoming travel direction; diffuse: shading normal
-    float g;       // phase
-    Color albedo;  // diffuse
+    const PhaseMix* phase;  // null: diffuse
+    Vec3 dir;               // phase: incoming travel direction; diffuse: shading normal
+    Color albedo;           // diffuse
 };
 
 PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {}
@@ -62,7 +62,7 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         Color f;
         float lobe_pdf;
         if (lobe.phase) {
-            lobe_pdf = hg_phase(glm::dot(lobe.dir, s.wi), lobe.g);
+            lobe_pdf = lobe.phase->eval(glm::dot(lobe.dir, s.wi));
             f = Color(lobe_pdf);
         } else {
             const float cos = glm::dot(lobe.dir, s.wi);
@@ -70,17 +70,9 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
             lobe_pdf = cos * kInvPi;
             f = lobe.albedo * lobe_pdf;
         }
-        const Ray shadow{origin, s.wi};
-        const float t_max = s.dist * (1.0f - 1e-4f);
-        if (scene_.surfaces) {
-            ++ts.rays;
-            if (scene_.surfaces->occluded(shadow, 0.0f, t_max)) continue;
-        }
-        Color T(1.0f);
-        if (!ts.media.empty()) {
-            T = ratio_track(ts.media, shadow, t_max, rng);
-            if (max_component(T) <= 0.0f) continue;
-        }
+        const Color T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi},
+                                             s.dist * (1.0f - 1e-4f), rng, &ts.rays);
+        if (max_component(T) <= 0.0f) continue;
         const float w = light.is_delta() ? 1.0f : power_heuristic(s.pdf, lobe_pdf);
         sum += f * s.Li * T * (w / s.pdf);
     }
@@ -112,10 +104,9 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
                 }
                 ++depth;
                 const Vec3 x = ray.at(tr.t);
-                const float g = scene_.media[tr.medium].params().g;
-                L += beta * direct_light(x, Lobe{true, ray.d, g, Color(0.0f)}, rng, ts);
-                const Vec2 u(rng.uniform(), rng.uniform());
-                const Vec3 wi = hg_sample(ray.d, g, u, &prev_pdf);  // weight phase/pdf = 1
+                const PhaseMix phase(ts.media, x);
+                L += beta * direct_light(x, Lobe{&phase, ray.d, Color(0.0f)}, rng, ts);
+                const Vec3 wi = phase.sample(ray.d, rng, &prev_pdf);  // weight phase/pdf = 1
                 specular = false;
                 prev_p = x;
                 ray = Ray{x, wi};
@@ -161,7 +152,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
             ray = sc.ray;
             specular = true;
         } else {
-            L += beta * direct_light(hit->p, Lobe{false, n, 0.0f, mat.albedo}, rng, ts);
+            L += beta * direct_light(hit->p, Lobe{nullptr, n, mat.albedo}, rng, ts);
             const Vec3 wi = sample_cosine_hemisphere(n, u);
             prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
             beta *= mat.albedo;  // f cos / pdf = albedo

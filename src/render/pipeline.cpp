@@ -86,7 +86,8 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
                 report.maps = built;  // one iteration's maps: the memory held at any time
                 first_gather = gather_params(desc, *scene, maps, progressive);
             }
-            const GatherParams gather = gather_at_iteration(*first_gather, i, desc.progressive.alpha);
+            const GatherParams gather =
+                gather_at_iteration(*first_gather, i, desc.progressive.alpha);
             it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
             double precompute_s = 0.0;
             out.film.add(render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,

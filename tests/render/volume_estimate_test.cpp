@@ -96,7 +96,8 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
             NeighborList scratch;
             for (size_t i = 0; i < points.size(); ++i)
                 est[i].push_back(
-                    volume_inscattered(*maps.volume, points[i], wo, kG, 1 << 30, kRadius, scratch)
+                    volume_inscattered(*maps.volume, points[i], wo, PhaseMix(kG), 1 << 30, kRadius,
+                                       scratch)
                         .x);
         }
         double error = 0.0;  // mean relative error of single maps

@@ -1,0 +1,77 @@
+#pragma once
+// The phase function where media overlap — one rule for the photon pass and both integrators: the
+// σ_s-weighted mixture of the media's Henyey–Greenstein functions,
+//   p(x; cos θ) = Σ_i w_i p_HG(cos θ; g_i) / Σ_i w_i,  w_i = density_i(x) · avg(sigma_s,i),
+// sampled by choosing medium i with probability w_i / Σ w (one uniform, drawn only when more than
+// one medium is present) and then its HG, so a sampled direction's pdf is the mixture itself and
+// its weight p/pdf is 1. With one medium it is that medium's HG. Per thread (it reads the
+// thread's samplers); cheap to make.
+
+#include "core/rng.h"
+#include "media/henyey_greenstein.h"
+#include "media/medium.h"
+
+#include <array>
+#include <vector>
+
+namespace fogmap {
+
+class PhaseMix {
+public:
+    /// One Henyey–Greenstein function.
+    explicit PhaseMix(float g) : n_(1) {
+        g_[0] = g;
+        w_[0] = total_ = 1.0f;
+    }
+
+    /// The mixture at world point x (density lookups only when there are several media).
+    PhaseMix(std::vector<Medium::Sampler>& samplers, const Vec3& x) {
+        if (samplers.size() == 1) {
+            g_[0] = samplers[0].medium().params().g;
+            w_[0] = 1.0f;
+            n_ = 1;
+            return;
+        }
+        for (Medium::Sampler& s : samplers) {
+            const float w = s.density(x) * average(s.medium().params().sigma_s);
+            if (!(w > 0.0f)) continue;
+            g_[n_] = s.medium().params().g;
+            w_[n_++] = w;
+            total_ += w;
+        }
+        if (n_ == 0) {  // no scattering medium at x: the first medium's (only reached at edges)
+            g_[0] = samplers.empty() ? 0.0f : samplers[0].medium().params().g;
+            w_[0] = 1.0f;
+            n_ = 1;
+        }
+        if (n_ == 1) total_ = w_[0] = 1.0f;
+    }
+
+    /// Phase value (1/sr) for the cosine between travel directions.
+    float eval(float cos_theta) const {
+        if (n_ == 1) return hg_phase(cos_theta, g_[0]);
+        float sum = 0.0f;
+        for (int i = 0; i < n_; ++i) sum += w_[i] * hg_phase(cos_theta, g_[i]);
+        return sum / total_;
+    }
+
+    /// New travel direction after scattering of a path travelling along unit `dir`; *pdf = eval.
+    Vec3 sample(const Vec3& dir, Rng& rng, float* pdf) const {
+        int pick = 0;
+        if (n_ > 1) {
+            float u = rng.uniform() * total_;
+            while (pick + 1 < n_ && u >= w_[pick]) u -= w_[pick++];
+        }
+        float component_pdf;
+        const Vec3 d = hg_sample(dir, g_[pick], Vec2(rng.uniform(), rng.uniform()), &component_pdf);
+        *pdf = n_ == 1 ? component_pdf : eval(glm::dot(dir, d));
+        return d;
+    }
+
+private:
+    std::array<float, kMaxMedia> g_{}, w_{};
+    float total_ = 0.0f;
+    int n_ = 0;
+};
+
+}  // namespace fogmap
