@@ -9,9 +9,9 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/timer.h"
-#include "render/bench.h"
+#include "bench/bench.h"
 #include "render/pipeline.h"
-#include "render/svg_plot.h"
+#include "bench/svg_plot.h"
 #include "scene/scene_desc_json.h"
 
 #include <unistd.h>

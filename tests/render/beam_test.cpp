@@ -5,6 +5,7 @@
 
 #include "media/volume_gen.h"
 #include "render/pipeline.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 
@@ -15,11 +16,7 @@ namespace {
 
 SceneDesc lit_medium(const MediumDesc& medium) {
     SceneDesc d;
-    LightDesc sun;
-    sun.type = LightType::Sun;
-    sun.direction = Vec3(0.4f, -1.0f, 0.3f);
-    sun.irradiance = Color(3.0f);
-    d.lights.push_back(sun);
+    d.lights.push_back(test::sun(Vec3(0.4f, -1.0f, 0.3f), 3.0f));
     d.media.push_back(medium);
     d.camera.position = Vec3(0.2f, 0.3f, 4.0f);
     d.camera.look_at = Vec3(0.0f);
@@ -50,12 +47,8 @@ std::pair<double, double> sphere_and_beam(SceneDesc d) {
 // at most of order r/L ≈ 2.5% of the image mean — plus camera noise of 24×18×4 samples (≈ 0.5%).
 // Hence 3%. (Measured: +1.7% homogeneous, −1.4% heterogeneous.)
 TEST(BeamEstimate, AgreesWithSphereEstimateInHomogeneousFog) {
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.bounds = Box3{Vec3(-1.0f), Vec3(1.0f)};
-    m.sigma_s = Color(1.5f);
-    m.sigma_a = Color(0.1f);
-    m.g = 0.4f;
+    const MediumDesc m =
+        test::homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(1.5f), Color(0.1f), 0.4f);
     const auto [sphere, beam] = sphere_and_beam(lit_medium(m));
     ASSERT_GT(sphere, 0.0);
     EXPECT_NEAR(beam, sphere, 0.03 * sphere);
@@ -71,11 +64,7 @@ TEST(BeamEstimate, AgreesWithSphereEstimateInHeterogeneousVdb) {
             return std::max(0.0f, 1.0f - (x * x + y * y + z * z));
         },
         Vec3(0.08f), Vec3(-0.96f));
-    MediumDesc m;
-    m.type = MediumType::Vdb;
-    m.file = path.string();
-    m.sigma_s = Color(3.0f);
-    m.sigma_a = Color(0.3f);
+    MediumDesc m = test::vdb_medium(path.string(), Color(3.0f), Color(0.3f));
     m.g = 0.2f;
     const auto [sphere, beam] = sphere_and_beam(lit_medium(m));
     std::filesystem::remove(path);

@@ -16,6 +16,7 @@
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
 #include "scene/scene.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
@@ -40,6 +41,7 @@ namespace fogmap {
 namespace {
 
 namespace fs = std::filesystem;
+using namespace test;
 
 // Sanitizer builds run 3-10x slower; the watchdog scales its limit so they do not trip it.
 #if defined(__SANITIZE_ADDRESS__)
@@ -101,29 +103,6 @@ private:
     fs::path path_;
 };
 
-LightDesc environment(float radiance) {
-    LightDesc l;
-    l.type = LightType::Environment;
-    l.radiance = Color(radiance);
-    return l;
-}
-
-LightDesc sun() {
-    LightDesc l;
-    l.type = LightType::Sun;
-    l.direction = glm::normalize(Vec3(0.3f, -1.0f, 0.2f));
-    l.irradiance = Color(2.0f);
-    return l;
-}
-
-LightDesc point_light(const Vec3& p, float intensity) {
-    LightDesc l;
-    l.type = LightType::Point;
-    l.position = p;
-    l.intensity = Color(intensity);
-    return l;
-}
-
 /// 8x6 pixels looking at the origin from +z, a uniform sky and a sun, no surfaces; small photon
 /// budgets, one thread (the tests share two cores).
 SceneDesc base_scene() {
@@ -132,7 +111,7 @@ SceneDesc base_scene() {
     d.camera.look_at = Vec3(0.0f);
     d.camera.width = 8;
     d.camera.height = 6;
-    d.lights = {environment(kSky), sun()};
+    d.lights = {environment(kSky), sun(glm::normalize(Vec3(0.3f, -1.0f, 0.2f)), 2.0f)};
     d.render.spp = 4;
     d.render.max_depth = 16;
     d.render.threads = 1;
@@ -149,36 +128,7 @@ SceneDesc base_scene() {
 }
 
 /// Adds a diffuse ground quad at y = -1.5 (exercises the global map and surface shadow rays).
-void add_ground(SceneDesc* d, float half = 4.0f) {
-    d->materials["ground"] = MaterialDesc{MaterialType::Diffuse, Color(0.6f), 1.5f};
-    ShapeDesc s;
-    s.type = ShapeType::Quad;
-    s.material = "ground";
-    s.corner = Vec3(-half, -1.5f, -half);
-    s.edge_u = Vec3(0.0f, 0.0f, 2.0f * half);
-    s.edge_v = Vec3(2.0f * half, 0.0f, 0.0f);
-    d->shapes.push_back(s);
-}
-
-MediumDesc homogeneous(const Box3& bounds, Color sigma_s, Color sigma_a, float g = 0.0f) {
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.bounds = bounds;
-    m.sigma_s = sigma_s;
-    m.sigma_a = sigma_a;
-    m.g = g;
-    return m;
-}
-
-MediumDesc vdb(const fs::path& file, Color sigma_s, Color sigma_a, float density_scale = 1.0f) {
-    MediumDesc m;
-    m.type = MediumType::Vdb;
-    m.file = file.string();
-    m.sigma_s = sigma_s;
-    m.sigma_a = sigma_a;
-    m.density_scale = density_scale;
-    return m;
-}
+void add_ground(SceneDesc* d) { test::add_ground(d, -1.5f, 4.0f, 0.6f); }
 
 /// Writes an n^3 grid centred on the origin (voxel centres at ((i - (n-1)/2) * voxel, ...)).
 fs::path cube_grid(const fs::path& dir, int n, float voxel,
@@ -199,8 +149,8 @@ SceneDesc tau_per_voxel_scene(const fs::path& dir, float tau_voxel, float albedo
     constexpr float kVoxel = 0.25f;
     SceneDesc d = base_scene();
     const float sigma_t = tau_voxel / kVoxel;
-    d.media.push_back(vdb(constant_grid(dir, 8, kVoxel, 1.0f), Color(albedo * sigma_t),
-                          Color((1.0f - albedo) * sigma_t)));
+    d.media.push_back(vdb_medium(constant_grid(dir, 8, kVoxel, 1.0f), Color(albedo * sigma_t),
+                                 Color((1.0f - albedo) * sigma_t)));
     return d;
 }
 
@@ -292,7 +242,7 @@ std::vector<Case> density_scale_cases() {
                        d.photons.max_bounces = 4;
                    }
                    d.media.push_back(
-                       vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(0.8f), Color(0.2f), s));
+                       vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f), Color(0.8f), Color(0.2f), s));
                    return d;
                }};
         if (s <= 1e-9f) {
@@ -307,8 +257,8 @@ std::vector<Case> density_scale_cases() {
     cases.push_back(Case{"DensityScaleOverflow",
                          [](const fs::path& dir) {
                              SceneDesc d = base_scene();
-                             d.media.push_back(vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(1e30f),
-                                                   Color(0.0f), 1e9f));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f),
+                                                          Color(1e30f), Color(0.0f), 1e9f));
                              return d;
                          },
                          {},
@@ -325,8 +275,8 @@ std::vector<Case> density_scale_cases() {
                              d.photons.volume = 100;
                              d.photons.max_emitted = 500;
                              d.photons.max_bounces = 4;
-                             d.media.push_back(vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(1e20f),
-                                                   Color(1e19f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f),
+                                                          Color(1e20f), Color(1e19f)));
                              return d;
                          }});
     cases.push_back(Case{"SigmaHugeHomogeneous", [](const fs::path&) {
@@ -349,8 +299,8 @@ std::vector<Case> voxel_size_cases() {
                                  // stands 2 grid widths away.
                                  SceneDesc d = base_scene();
                                  d.camera.position = Vec3(0.0f, 0.0f, 16.0f * v);
-                                 d.media.push_back(vdb(constant_grid(dir, 8, v, 1.0f),
-                                                       Color(0.9f / v), Color(0.1f / v)));
+                                 d.media.push_back(vdb_medium(constant_grid(dir, 8, v, 1.0f),
+                                                              Color(0.9f / v), Color(0.1f / v)));
                                  return d;
                              }});
     }
@@ -364,7 +314,7 @@ std::vector<Case> voxel_size_cases() {
                                  Vec3(1e-4f), at);
                              d.camera.position = at + Vec3(0.0f, 0.0f, 0.005f);
                              d.camera.look_at = at + Vec3(4e-4f);
-                             d.media.push_back(vdb(p, Color(9000.0f), Color(1000.0f)));
+                             d.media.push_back(vdb_medium(p, Color(9000.0f), Color(1000.0f)));
                              return d;
                          }});
     return cases;
@@ -383,7 +333,7 @@ std::vector<Case> bad_voxel_cases() {
         cases.push_back(Case{
             std::string("BadVoxels_") + label, [b](const fs::path& dir) {
                 SceneDesc d = base_scene();
-                d.media.push_back(vdb(
+                d.media.push_back(vdb_medium(
                     cube_grid(dir, 8, 0.25f,
                               [b](int i, int j, int k) { return (i + j + k) % 3 == 0 ? b : 1.0f; }),
                     Color(3.0f), Color(1.0f)));
@@ -394,8 +344,8 @@ std::vector<Case> bad_voxel_cases() {
     cases.push_back(Case{"BadVoxels_AllNaN",
                          [nan](const fs::path& dir) {
                              SceneDesc d = base_scene();
-                             d.media.push_back(
-                                 vdb(constant_grid(dir, 4, 0.25f, nan), Color(3.0f), Color(1.0f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 4, 0.25f, nan),
+                                                          Color(3.0f), Color(1.0f)));
                              return d;
                          },
                          [](const PipelineResult& r, Integrator) {
@@ -409,8 +359,8 @@ std::vector<Case> grid_shape_cases() {
     cases.push_back(Case{"EmptyGrid",
                          [](const fs::path& dir) {
                              SceneDesc d = base_scene();
-                             d.media.push_back(
-                                 vdb(constant_grid(dir, 4, 0.25f, 0.0f), Color(3.0f), Color(1.0f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 4, 0.25f, 0.0f),
+                                                          Color(3.0f), Color(1.0f)));
                              return d;
                          },
                          [](const PipelineResult& r, Integrator) {
@@ -419,15 +369,15 @@ std::vector<Case> grid_shape_cases() {
     cases.push_back(Case{"OneVoxelGrid", [](const fs::path& dir) {
                              SceneDesc d = base_scene();
                              d.camera.position = Vec3(0.0f, 0.0f, 1.0f);
-                             d.media.push_back(vdb(constant_grid(dir, 1, 0.25f, 1.0f), Color(20.0f),
-                                                   Color(2.0f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 1, 0.25f, 1.0f),
+                                                          Color(20.0f), Color(2.0f)));
                              return d;
                          }});
     cases.push_back(Case{"OneVoxelGridOpaque", [](const fs::path& dir) {
                              SceneDesc d = base_scene();
                              d.camera.position = Vec3(0.0f, 0.0f, 1.0f);
-                             d.media.push_back(
-                                 vdb(constant_grid(dir, 1, 0.25f, 1.0f), Color(4e4f), Color(1.0f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 1, 0.25f, 1.0f),
+                                                          Color(4e4f), Color(1.0f)));
                              return d;
                          }});
     return cases;
@@ -437,24 +387,24 @@ std::vector<Case> albedo_and_phase_cases() {
     std::vector<Case> cases;
     // Albedo 0: a slab of sigma_a = 2, 1 unit thick, seen head-on through a 1-degree field of
     // view (path length 1 within 2e-4): the sky times exp(-2), and nothing scattered.
-    cases.push_back(
-        Case{"AlbedoZeroSlab",
-             [](const fs::path&) {
-                 SceneDesc d = base_scene();
-                 d.camera.fov_deg = 1.0f;
-                 d.render.spp = 64;
-                 d.media.push_back(
-                     homogeneous(Box3{Vec3(-50.0f, -50.0f, -0.5f), Vec3(50.0f, 50.0f, 0.5f)},
-                                 Color(0.0f), Color(2.0f)));
-                 return d;
-             },
-             [](const PipelineResult& r, Integrator integrator) {
-                 expect_mean(r.film.beauty, kSky * std::exp(-2.0), 1e-4, "sky through absorber");
-                 if (integrator == Integrator::Photon) {
-                     expect_all_zero(r.film.layer(Layer::VolumeSingle), "volume_single at albedo 0");
-                     expect_all_zero(r.film.layer(Layer::VolumeMultiple), "volume_multiple at albedo 0");
-                 }
-             }});
+    cases.push_back(Case{
+        "AlbedoZeroSlab",
+        [](const fs::path&) {
+            SceneDesc d = base_scene();
+            d.camera.fov_deg = 1.0f;
+            d.render.spp = 64;
+            d.media.push_back(
+                homogeneous(Box3{Vec3(-50.0f, -50.0f, -0.5f), Vec3(50.0f, 50.0f, 0.5f)},
+                            Color(0.0f), Color(2.0f)));
+            return d;
+        },
+        [](const PipelineResult& r, Integrator integrator) {
+            expect_mean(r.film.beauty, kSky * std::exp(-2.0), 1e-4, "sky through absorber");
+            if (integrator == Integrator::Photon) {
+                expect_all_zero(r.film.layer(Layer::VolumeSingle), "volume_single at albedo 0");
+                expect_all_zero(r.film.layer(Layer::VolumeMultiple), "volume_multiple at albedo 0");
+            }
+        }});
     // Albedo exactly 1, camera inside a homogeneous medium under a uniform sky (sun removed):
     // the white furnace, every pixel sees the sky radiance. The path tracer is unbiased given a
     // depth cap the paths do not reach (tau 3 to the walls; 10^4 vertices).
@@ -482,8 +432,9 @@ std::vector<Case> albedo_and_phase_cases() {
                              // A regression bound, not a standard-error test: within 10%.
                              else
                                  EXPECT_NEAR(r.film.beauty.mean(), kSky, 0.1 * kSky)
-                                     << "photon furnace: direct " << r.film.layer(Layer::Direct).mean()
-                                     << " single " << r.film.layer(Layer::VolumeSingle).mean() << " multiple "
+                                     << "photon furnace: direct "
+                                     << r.film.layer(Layer::Direct).mean() << " single "
+                                     << r.film.layer(Layer::VolumeSingle).mean() << " multiple "
                                      << r.film.layer(Layer::VolumeMultiple).mean();
                          }});
     // Albedo exactly 1 and optical depth 1e3 to the walls: paths would need ~1e6 vertices to
@@ -503,18 +454,19 @@ std::vector<Case> albedo_and_phase_cases() {
                                  << "the depth cap removes energy here";
                          }});
     for (float g : {0.999f, -0.999f}) {
-        cases.push_back(Case{
-            std::string("HenyeyGreenstein_g") + (g > 0 ? "Plus" : "Minus") + "0999",
-            [g](const fs::path& dir) {
-                SceneDesc d = base_scene();
-                add_ground(&d);
-                MediumDesc m = vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(2.0f), Color(0.1f));
-                m.g = g;
-                d.media.push_back(m);
-                d.media.push_back(
-                    homogeneous(Box3{Vec3(-3.0f), Vec3(3.0f)}, Color(0.2f), Color(0.0f), g));
-                return d;
-            }});
+        cases.push_back(
+            Case{std::string("HenyeyGreenstein_g") + (g > 0 ? "Plus" : "Minus") + "0999",
+                 [g](const fs::path& dir) {
+                     SceneDesc d = base_scene();
+                     add_ground(&d);
+                     MediumDesc m =
+                         vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f), Color(2.0f), Color(0.1f));
+                     m.g = g;
+                     d.media.push_back(m);
+                     d.media.push_back(
+                         homogeneous(Box3{Vec3(-3.0f), Vec3(3.0f)}, Color(0.2f), Color(0.0f), g));
+                     return d;
+                 }});
     }
     return cases;
 }
@@ -524,8 +476,8 @@ std::vector<Case> placement_cases() {
     cases.push_back(Case{"CameraInsideGrid", [](const fs::path& dir) {
                              SceneDesc d = base_scene();
                              d.camera.position = Vec3(0.1f, 0.05f, 0.2f);
-                             d.media.push_back(
-                                 vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(2.0f), Color(0.5f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f),
+                                                          Color(2.0f), Color(0.5f)));
                              return d;
                          }});
     cases.push_back(Case{"PointLightInsideHomogeneous", [](const fs::path&) {
@@ -540,8 +492,8 @@ std::vector<Case> placement_cases() {
                              SceneDesc d = base_scene();
                              // Exactly on a voxel centre, where photons start at a density max.
                              d.lights = {point_light(Vec3(0.125f, 0.125f, 0.125f), 5.0f)};
-                             d.media.push_back(
-                                 vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(4.0f), Color(0.5f)));
+                             d.media.push_back(vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f),
+                                                          Color(4.0f), Color(0.5f)));
                              return d;
                          }});
     cases.push_back(Case{
@@ -574,7 +526,8 @@ std::vector<Case> photon_cases() {
             d.global.radius = radius;
             d.caustic.radius = radius;
             d.volume.radius = radius;
-            d.media.push_back(vdb(constant_grid(dir, 8, 0.25f, 1.0f), Color(2.0f), Color(0.5f)));
+            d.media.push_back(
+                vdb_medium(constant_grid(dir, 8, 0.25f, 1.0f), Color(2.0f), Color(0.5f)));
             return d;
         };
     };

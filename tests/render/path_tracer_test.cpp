@@ -9,6 +9,7 @@
 #include "core/parallel.h"
 #include "media/volume_gen.h"
 #include "scene/scene.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 
@@ -17,6 +18,8 @@
 
 namespace fogmap {
 namespace {
+
+using namespace test;
 
 struct MeanEstimate {
     double mean = 0.0, standard_error = 0.0;
@@ -50,29 +53,12 @@ SceneDesc base_desc() {
     return d;
 }
 
-LightDesc environment(float radiance) {
-    LightDesc l;
-    l.type = LightType::Environment;
-    l.radiance = Color(radiance);
-    return l;
-}
-
-MediumDesc homogeneous(Color sigma_s, Color sigma_a, float g, Box3 bounds) {
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.sigma_s = sigma_s;
-    m.sigma_a = sigma_a;
-    m.g = g;
-    m.bounds = bounds;
-    return m;
-}
-
 TEST(WhiteFurnace, AlbedoOneHomogeneousMediumRendersTheEnvironment) {
     for (float sigma : {0.5f, 5.0f}) {
         SceneDesc d = base_desc();
         d.lights.push_back(environment(0.8f));
         d.media.push_back(
-            homogeneous(Color(sigma), Color(0.0f), 0.6f, Box3{Vec3(-1.0f), Vec3(1.0f)}));
+            homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(sigma), Color(0.0f), 0.6f));
         const auto scene = load_scene(d);
         const Ray ray{Vec3(0.2f, 0.1f, 5.0f), glm::normalize(Vec3(-0.05f, 0.0f, -1.0f))};
         const MeanEstimate e = radiance_mean(*scene, 100000, ray, 20000);
@@ -128,13 +114,8 @@ TEST(WhiteFurnace, ConvexAlbedoOneSurfaceRendersTheEnvironment) {
 
 SceneDesc ground_plane_desc() {
     SceneDesc d = base_desc();
-    ShapeDesc ground;
-    ground.type = ShapeType::Quad;
-    ground.material = "grey";
-    ground.corner = Vec3(-50.0f, 0.0f, -50.0f);
-    ground.edge_u = Vec3(0.0f, 0.0f, 100.0f);
-    ground.edge_v = Vec3(100.0f, 0.0f, 0.0f);
-    d.shapes.push_back(ground);
+    d.shapes.push_back(quad(Vec3(-50.0f, 0.0f, -50.0f), Vec3(0.0f, 0.0f, 100.0f),
+                            Vec3(100.0f, 0.0f, 0.0f), "grey"));
     return d;
 }
 
@@ -190,9 +171,8 @@ TEST(SingleScattering, ThinSlabMatchesClosedForm) {
     sun.irradiance = Color(E);
     sun.direction = Vec3(std::sin(theta), -std::cos(theta), 0.0f);
     d.lights.push_back(sun);
-    d.media.push_back(
-        homogeneous(Color(sigma_s), Color(sigma_a), g,
-                    Box3{Vec3(-100.0f, 0.0f, -100.0f), Vec3(100.0f, d_slab, 100.0f)}));
+    d.media.push_back(homogeneous(Box3{Vec3(-100.0f, 0.0f, -100.0f), Vec3(100.0f, d_slab, 100.0f)},
+                                  Color(sigma_s), Color(sigma_a), g));
     const auto scene = load_scene(d);
     const Ray ray{Vec3(0.0f, -1.0f, 0.0f), Vec3(0.0f, 1.0f, 0.0f)};
     const MeanEstimate e = radiance_mean(*scene, 1, ray, 100000);
@@ -218,7 +198,7 @@ TEST(DepthCap, EveryPathInADeepConservativeMediumIsCountedAsCut) {
         d.lights.push_back(sky);
         if (medium)
             d.media.push_back(
-                homogeneous(Color(1000.0f), Color(0.0f), 0.0f, Box3{Vec3(-10.0f), Vec3(10.0f)}));
+                homogeneous(Box3{Vec3(-10.0f), Vec3(10.0f)}, Color(1000.0f), Color(0.0f), 0.0f));
         d.camera.position = Vec3(0.0f);
         d.camera.look_at = Vec3(0.0f, 0.0f, -1.0f);
         d.camera.width = 8;

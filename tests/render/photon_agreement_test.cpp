@@ -24,7 +24,7 @@ struct AgreementCase {
     const char* scene;
     int width, height;
     int reference_spp, photon_spp;
-    uint64_t volume_photons;  ///< smallest count; then x4 and x16
+    uint64_t volume_photons;       ///< smallest count; then x4 and x16
     double mean_tolerance = 0.02;  ///< relative, image mean against the reference's
 };
 

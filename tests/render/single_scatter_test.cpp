@@ -6,6 +6,7 @@
 
 #include "render/photon_integrator.h"
 #include "scene/scene.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 
@@ -14,19 +15,16 @@
 namespace fogmap {
 namespace {
 
+using namespace test;
+
 constexpr float kSigmaS = 0.5f, kSigmaA = 0.25f;
 constexpr double kSigmaT = kSigmaS + kSigmaA;
 
 SceneDesc cube(const LightDesc& light, int light_samples) {
     SceneDesc d;
     d.lights.push_back(light);
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.bounds = Box3{Vec3(-1.0f), Vec3(1.0f)};
-    m.sigma_s = Color(kSigmaS);
-    m.sigma_a = Color(kSigmaA);
-    m.g = 0.0f;  // isotropic: p = 1/(4π)
-    d.media.push_back(m);
+    // Isotropic (g = 0): p = 1/(4π).
+    d.media.push_back(homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(kSigmaS), Color(kSigmaA)));
     d.photons.global = d.photons.caustic = d.photons.volume = 0;
     d.volume.light_samples = light_samples;
     return d;

@@ -6,6 +6,7 @@
 #include "media/henyey_greenstein.h"
 #include "photon/estimators.h"
 #include "render/path_tracer.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 
@@ -16,17 +17,9 @@ constexpr float kSigmaS = 0.8f, kSigmaA = 0.2f, kG = 0.3f, kRadius = 0.35f;
 
 SceneDesc cube_under_sky() {
     SceneDesc d;
-    LightDesc sky;
-    sky.type = LightType::Environment;
-    sky.radiance = Color(1.0f);
-    d.lights.push_back(sky);
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.bounds = Box3{Vec3(-1.0f), Vec3(1.0f)};
-    m.sigma_s = Color(kSigmaS);
-    m.sigma_a = Color(kSigmaA);
-    m.g = kG;
-    d.media.push_back(m);
+    d.lights.push_back(test::environment(1.0f));
+    d.media.push_back(
+        test::homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(kSigmaS), Color(kSigmaA), kG));
     return d;
 }
 
@@ -91,14 +84,14 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
         for (int seed = 0; seed < kSeeds; ++seed) {
             d.render.seed = 100 + seed;
             const auto s = load_scene(d);
-            PhotonMaps maps = build_trees(trace_photons(*s, make_plan(d), d.photons, d.march, d.render.seed, true));
+            PhotonMaps maps = build_trees(
+                trace_photons(*s, make_plan(d), d.photons, d.march, d.render.seed, true));
             ASSERT_TRUE(maps.volume.has_value());
             NeighborList scratch;
             for (size_t i = 0; i < points.size(); ++i)
-                est[i].push_back(
-                    volume_inscattered(*maps.volume, points[i], wo, PhaseMix(kG), 1 << 30, kRadius,
-                                       scratch)
-                        .x);
+                est[i].push_back(volume_inscattered(*maps.volume, points[i], wo, PhaseMix(kG),
+                                                    1 << 30, kRadius, scratch)
+                                     .x);
         }
         double error = 0.0;  // mean relative error of single maps
         for (size_t i = 0; i < points.size(); ++i) {

@@ -7,6 +7,7 @@
 
 #include "core/parallel.h"
 #include "photon/estimators.h"
+#include "scene_builders.h"
 
 #include <gtest/gtest.h>
 
@@ -15,31 +16,10 @@
 namespace fogmap {
 namespace {
 
-LightDesc sun(const Vec3& direction, float irradiance) {
-    LightDesc l;
-    l.type = LightType::Sun;
-    l.direction = direction;
-    l.irradiance = Color(irradiance);
-    return l;
-}
-
-ShapeDesc quad(const Vec3& corner, const Vec3& u, const Vec3& v, const std::string& material) {
-    ShapeDesc s;
-    s.type = ShapeType::Quad;
-    s.corner = corner;
-    s.edge_u = u;
-    s.edge_v = v;
-    s.material = material;
-    return s;
-}
+using namespace test;
 
 MediumDesc fog_box() {
-    MediumDesc m;
-    m.type = MediumType::Homogeneous;
-    m.bounds = Box3{Vec3(-1.0f), Vec3(1.0f)};
-    m.sigma_s = Color(1.0f);
-    m.sigma_a = Color(0.1f);
-    return m;
+    return homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(1.0f), Color(0.1f));
 }
 
 TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
@@ -61,7 +41,8 @@ TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
     d.photons.volume = 0;  // budget 0: the plan turns the map off and nothing is traced
     const Plan off = make_plan(d);
     EXPECT_FALSE(off.volume_map.on);
-    const PhotonPassResult none = trace_photons(*load_scene(d), off, d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult none =
+        trace_photons(*load_scene(d), off, d.photons, d.march, d.render.seed, true);
     EXPECT_FALSE(none.volume.has_value());
     EXPECT_EQ(none.emitted, 0u);
 }
@@ -105,7 +86,8 @@ TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
         quad(Vec3(-1.0f, 0.0f, -1.0f), Vec3(0.0f, 0.0f, 2.0f), Vec3(2.0f, 0.0f, 0.0f), "floor"));
     d.photons.global = 100;
     d.photons.max_emitted = 50000;
-    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult r =
+        trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
     EXPECT_EQ(r.emitted, 50000u);
     ASSERT_TRUE(r.global.has_value());
     EXPECT_EQ(r.global->photons.size(), 0u);
@@ -134,7 +116,8 @@ TEST(PhotonPass, BounceCapCountsEveryPathItCuts) {
     d.photons.max_bounces = 1;
     d.photons.max_emitted = 200000;
     d.march.method = FreePathMethod::Delta;
-    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult r =
+        trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
     ASSERT_EQ(r.emitted, 200000u);
     double expected = 0.0;
     const int n = 200000;
@@ -176,7 +159,8 @@ TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
     for (uint64_t n : {4000u, 16000u, 64000u}) {
         d.photons.caustic = n;
         const auto scene = load_scene(d);
-        PhotonMaps maps = build_trees(trace_photons(*scene, make_plan(d), d.photons, d.march, d.render.seed, true));
+        PhotonMaps maps = build_trees(
+            trace_photons(*scene, make_plan(d), d.photons, d.march, d.render.seed, true));
         ASSERT_TRUE(maps.caustic.has_value());
         NeighborList scratch;
         double error = 0.0, sum = 0.0;

@@ -4,8 +4,8 @@
 // CSV row per run and a plot, reuses its cached reference, and rejects bad input with exit 2
 // without touching an existing CSV. No timing appears in any assertion.
 
-#include "render/bench.h"
-#include "render/svg_plot.h"
+#include "bench/bench.h"
+#include "bench/svg_plot.h"
 
 #include "core/image.h"
 #include "test_support.h"

@@ -1,4 +1,4 @@
-#include "render/bench.h"
+#include "bench/bench.h"
 
 #include "core/timer.h"
 #include "render/metrics.h"

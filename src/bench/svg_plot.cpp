@@ -1,4 +1,4 @@
-#include "render/svg_plot.h"
+#include "bench/svg_plot.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,0 +1,78 @@
+#pragma once
+// Scene pieces the test programs build scenes from in code (lights, a diffuse ground, media), so
+// each test states only what its scene is about. Plain SceneDesc values: they still go through
+// load_scene (and validate where a test runs the pipeline).
+
+#include "scene/scene_desc.h"
+
+#include <string>
+
+namespace fogmap::test {
+
+inline LightDesc environment(float radiance) {
+    LightDesc l;
+    l.type = LightType::Environment;
+    l.radiance = Color(radiance);
+    return l;
+}
+
+/// A delta sun travelling along `direction` (make_light normalises it) with irradiance E.
+inline LightDesc sun(const Vec3& direction, float irradiance) {
+    LightDesc l;
+    l.type = LightType::Sun;
+    l.direction = direction;
+    l.irradiance = Color(irradiance);
+    return l;
+}
+
+inline LightDesc point_light(const Vec3& position, float intensity) {
+    LightDesc l;
+    l.type = LightType::Point;
+    l.position = position;
+    l.intensity = Color(intensity);
+    return l;
+}
+
+inline ShapeDesc quad(const Vec3& corner, const Vec3& edge_u, const Vec3& edge_v,
+                      const std::string& material) {
+    ShapeDesc s;
+    s.type = ShapeType::Quad;
+    s.corner = corner;
+    s.edge_u = edge_u;
+    s.edge_v = edge_v;
+    s.material = material;
+    return s;
+}
+
+/// A diffuse square of side 2·half at height y centred above the origin, facing up, with its
+/// material `name` of the given albedo.
+inline void add_ground(SceneDesc* d, float y, float half, float albedo,
+                       const std::string& name = "ground") {
+    d->materials[name] = MaterialDesc{MaterialType::Diffuse, Color(albedo), 1.5f};
+    d->shapes.push_back(quad(Vec3(-half, y, -half), Vec3(0.0f, 0.0f, 2.0f * half),
+                             Vec3(2.0f * half, 0.0f, 0.0f), name));
+}
+
+inline MediumDesc homogeneous(const Box3& bounds, const Color& sigma_s, const Color& sigma_a,
+                              float g = 0.0f) {
+    MediumDesc m;
+    m.type = MediumType::Homogeneous;
+    m.bounds = bounds;
+    m.sigma_s = sigma_s;
+    m.sigma_a = sigma_a;
+    m.g = g;
+    return m;
+}
+
+inline MediumDesc vdb_medium(const std::string& file, const Color& sigma_s, const Color& sigma_a,
+                             float density_scale = 1.0f) {
+    MediumDesc m;
+    m.type = MediumType::Vdb;
+    m.file = file;
+    m.sigma_s = sigma_s;
+    m.sigma_a = sigma_a;
+    m.density_scale = density_scale;
+    return m;
+}
+
+}  // namespace fogmap::test
