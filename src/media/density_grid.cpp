@@ -144,11 +144,15 @@ MajorantGrid build_majorants(FloatTree& tree, const Box3& index_bounds) {
 /// DensityGrid's sampling layout (detail::Bricks): each majorant cell's 9^3 footprint read from
 /// the tree (leaf values, active or not, else the tile or background value: what BoxSampler's
 /// getValue sees), kept as one value when uniform, else as a brick. A leaf-sized neighbour is a
-/// leaf or a single value, so 8 probes per cell find every source.
-detail::Bricks build_bricks(const FloatTree& tree, const MajorantGrid& maj) {
+/// leaf or a single value, so 8 probes per cell find every source. Also fills maj->min_density:
+/// the footprint's least value, below every trilinear sample in the cell (a convex combination
+/// of footprint values).
+detail::Bricks build_bricks(const FloatTree& tree, MajorantGrid* majorants) {
     constexpr int kEdge = detail::kBrickEdge, kCell = DensityGrid::kMajorantCell;
+    const MajorantGrid& maj = *majorants;
     detail::Bricks out;
     out.cells.resize(maj.max_density.size());
+    majorants->min_density.assign(maj.max_density.size(), 0.0f);
     openvdb::tree::ValueAccessor<const FloatTree> acc(tree);
     std::array<float, detail::kBrickValues> brick;
     size_t n = 0;
@@ -175,6 +179,7 @@ detail::Bricks build_bricks(const FloatTree& tree, const MajorantGrid& maj) {
                 }
                 detail::BrickCell& cell = out.cells[n];
                 cell.value = brick[0];
+                majorants->min_density[n] = *std::min_element(brick.begin(), brick.end());
                 if (std::all_of(brick.begin(), brick.end(), [&](float v) { return v == brick[0]; }))
                     continue;
                 cell.brick = static_cast<int32_t>(out.values.size() / detail::kBrickValues);
@@ -318,7 +323,7 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     out->majorants_ = build_majorants(tree, out->index_bounds_);
     out->index_to_world_ = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
     // Last, on the sanitized tree; the tree itself is not kept (the sampler reads only bricks).
-    out->bricks_ = build_bricks(tree, out->majorants_);
+    out->bricks_ = build_bricks(tree, &out->majorants_);
     return out;
 }
 

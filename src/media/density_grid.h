@@ -48,16 +48,20 @@ struct SanitizeStats {
     uint64_t total() const { return nan + inf + negative + denormal; }
 };
 
-/// Majorant grid: max density over the trilinear footprint of each coarse cell.
+/// Majorant grid: max and min density over the trilinear footprint of each coarse cell (the
+/// max bounds delta and ratio tracking; the min is residual ratio tracking's control density).
 /// Cell (i,j,k) covers index-space points [origin + cell*i, origin + cell*(i+1)) per axis.
 struct MajorantGrid {
     std::array<int, 3> origin{0, 0, 0};  ///< index coordinate of cell (0,0,0)'s lower corner
     std::array<int, 3> dims{0, 0, 0};    ///< number of cells per axis
     int cell = 8;                        ///< voxels per cell edge
     std::vector<float> max_density;      ///< dims[0]*dims[1]*dims[2], x fastest
-    float at(int i, int j, int k) const {
-        return max_density[(static_cast<size_t>(k) * dims[1] + j) * dims[0] + i];
+    std::vector<float> min_density;      ///< same layout; <= every sample in the cell
+    size_t index(int i, int j, int k) const {
+        return (static_cast<size_t>(k) * dims[1] + j) * dims[0] + i;
     }
+    float at(int i, int j, int k) const { return max_density[index(i, j, k)]; }
+    float min_at(int i, int j, int k) const { return min_density[index(i, j, k)]; }
 };
 
 namespace detail {

@@ -62,18 +62,22 @@ float Medium::Sampler::density(const Vec3& p_world) {
     return grid_sampler_->density(transform_point(medium_->world_to_index_, p_world));
 }
 
-bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1) {
+bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1, bool residual) {
     walking_ = false;
     exhausted_ = false;
     tentatives_ = 0;
+    residual_ = residual;
+    control_length_ = 0.0;
     const Medium& m = *medium_;
     if (m.sigma_t_max_ <= 0.0f || m.world_bounds_.empty()) return false;
-    if (!grid_sampler_) {
+    if (!grid_sampler_) {  // density 1 in the box: min = max = 1
         float te, tx;
         if (!intersect_box(m.world_bounds_, ray, t0, t1, &te, &tx)) return false;
         seg_t0_ = te;
         seg_t1_ = tx;
-        seg_maj_ = m.sigma_t_max_;
+        seg_maj_ = residual ? 0.0f : m.sigma_t_max_;
+        seg_min_ = 1.0f;
+        if (residual) control_length_ = double(tx) - double(te);
         return true;
     }
     // Heterogeneous: walk the majorant cells in index space; t is shared with world space
@@ -124,7 +128,14 @@ bool Medium::Sampler::next_segment() {
     if (t_next_[2] < t_next_[axis]) axis = 2;
     seg_t0_ = seg_t1_;
     seg_t1_ = std::min(std::max(t_next_[axis], seg_t0_), t_end_);
-    seg_maj_ = maj.at(cell_[0], cell_[1], cell_[2]) * medium_->sigma_t_max_;
+    const float d_max = maj.at(cell_[0], cell_[1], cell_[2]);
+    if (residual_) {
+        seg_min_ = maj.min_at(cell_[0], cell_[1], cell_[2]);
+        seg_maj_ = (d_max - seg_min_) * medium_->sigma_t_max_;
+        control_length_ += double(seg_min_) * (seg_t1_ - seg_t0_);
+    } else {
+        seg_maj_ = d_max * medium_->sigma_t_max_;
+    }
     cell_[axis] += step_[axis];
     t_next_[axis] += t_delta_[axis];
     if (cell_[axis] < 0 || cell_[axis] >= maj.dims[axis]) t_end_ = seg_t1_;  // left the grid
@@ -193,14 +204,16 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
 }
 
 Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng) {
-    Color T(1.0f);
+    Color T(1.0f);      // the residual's ratio-tracking product
+    DVec3 tau_c(0.0);   // the control's optical depth, exact
     for (Medium::Sampler& s : media) {
-        if (!s.begin_walk(ray, 0.0f, t_max)) continue;
+        if (!s.begin_walk(ray, 0.0f, t_max, /*residual=*/true)) continue;
         const Color sigma_t_unit = s.medium().sigma_t();
         float t, m;
         while (s.next_tentative(rng, &t, &m)) {
-            const Color sigma_t = s.density(ray.at(t)) * sigma_t_unit;
-            T *= glm::max(Color(1.0f) - sigma_t / m, Color(0.0f));
+            // Residual σ_t − σ_c against its majorant m = (d_max − d_min) · max σ_t.
+            const float residual = s.density(ray.at(t)) - s.control_density();
+            T *= glm::max(Color(1.0f) - (residual / m) * sigma_t_unit, Color(0.0f));
             const float tmax = max_component(T);
             if (tmax <= 0.0f) return Color(0.0f);
             if (tmax < 0.1f) {  // Russian roulette keeps thick media affordable, unbiased
@@ -209,8 +222,9 @@ Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_m
             }
         }
         if (s.exhausted()) return Color(0.0f);  // opaque at every resolved scale: see header
+        tau_c += DVec3(sigma_t_unit) * s.control_density_length();
     }
-    return T;
+    return T * Color(glm::exp(-tau_c));
 }
 
 }  // namespace fogmap

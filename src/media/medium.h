@@ -3,7 +3,9 @@
 // homogeneous (density 1 inside a world box) or heterogeneous (a DensityGrid under the grid's own
 // transform times the scene transform). Free paths are found by weighted delta tracking against
 // piecewise-constant majorants (one per majorant cell, walked by a 3D DDA; empty cells are skipped)
-// and transmittance by ratio tracking. Several media superpose: their majorant processes are
+// and transmittance by residual ratio tracking (Novák, Selle & Jarosz 2014) against each cell's
+// minimum density as control: exp(−σ_t ∫ d_min) exactly, times ratio tracking of what lies above
+// it, so homogeneous media and uniform cells add no variance. Several media superpose: their majorant processes are
 // walked side by side and the nearest tentative collision is processed (Poisson superposition).
 // Rays must have unit world-space direction; t is world distance.
 // Thread-safety: a Medium is immutable and shared const; Medium::Sampler is per thread.
@@ -52,12 +54,21 @@ public:
         /// Density at a world point (0 outside the medium).
         float density(const Vec3& p_world);
         /// Starts a walk of tentative collisions of the majorant process along the ray on
-        /// [t0, t1]. Returns false if the medium is not met there.
-        bool begin_walk(const Ray& ray, float t0, float t1);
+        /// [t0, t1]. Returns false if the medium is not met there. With `residual`, the process
+        /// runs at the residual majorant (max − min density of each cell) × max σ_t, so a
+        /// uniform cell yields no collision; control_density_length() then accumulates the
+        /// control's ∫ d_min dt over the cells walked.
+        bool begin_walk(const Ray& ray, float t0, float t1, bool residual = false);
         /// Next tentative collision: *t (world distance) and *sigma_maj (majorant of σ_t at
-        /// *t, 1/world unit). False when the walk passes t1, or when it has produced
-        /// kMaxTentatives collisions (then exhausted() is true until the next begin_walk).
+        /// *t — the residual majorant in a residual walk —, 1/world unit). False when the walk
+        /// passes t1, or when it has produced kMaxTentatives collisions (then exhausted() is true
+        /// until the next begin_walk).
         bool next_tentative(Rng& rng, float* t, float* sigma_maj);
+        /// Residual walks: the control (minimum) density of the cell holding the last tentative.
+        float control_density() const { return seg_min_; }
+        /// Residual walks: ∫ d_min dt over the cells walked so far (world units × density); the
+        /// whole walked range once next_tentative has returned false.
+        double control_density_length() const { return control_length_; }
 
         /// Work bound per walk. Entering a grid, the density ramps from 0 over one voxel under a
         /// cell majorant, which costs ~sqrt(2 τ_voxel) null collisions (2e4 at τ_voxel = 2.5e8,
@@ -78,6 +89,9 @@ public:
         // resolution of t, and a float walk would stop advancing (a hang in empty space).
         double t_end_ = 0.0, seg_t0_ = 0.0, seg_t1_ = 0.0;
         float seg_maj_ = 0.0f;
+        float seg_min_ = 0.0f;          ///< residual walks: control density of the segment
+        bool residual_ = false;
+        double control_length_ = 0.0;  ///< residual walks: ∫ d_min dt over segments entered
         int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
         double t_next_[3] = {0, 0, 0}, t_delta_[3] = {0, 0, 0};
         bool walking_ = false;
@@ -111,8 +125,10 @@ struct TrackResult {
 TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
                         Color* beta);
 
-/// Ratio-tracking estimate of the transmittance exp(-∫σ_t) on (0, t_max), per channel, with
-/// Russian roulette once it falls below 0.1 (unbiased, bounded work).
+/// Transmittance exp(−∫σ_t) on (0, t_max), per channel, by residual ratio tracking: the control
+/// part exp(−σ_t ∫ d_min) exactly (all of it in homogeneous media and uniform cells), the residual
+/// by ratio tracking with Russian roulette once its product falls below 0.1 (unbiased, bounded
+/// work).
 Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng);
 
 }  // namespace fogmap
