@@ -166,7 +166,7 @@ bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
 }
 
 TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
-                        Color* beta) {
+                        Color* beta, Collision collision) {
     const int n = static_cast<int>(media.size());
     FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
     std::array<float, kMaxMedia> t_next, mu;
@@ -186,16 +186,27 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
         const float d = media[i].density(ray.at(t));
         const Color sigma_s = d * p.sigma_s, sigma_a = d * p.sigma_a;
         const float m = mu[i];
-        const float p_a = average(sigma_a) / m, p_s = average(sigma_s) / m;
         const float u = rng.uniform();
-        if (u < p_a) return {TrackEvent::Absorbed, t, i};
-        if (u < p_a + p_s) {
-            *beta *= sigma_s / (m * p_s);
-            return {TrackEvent::Scattered, t, i};
+        float p_null;
+        if (collision == Collision::Analog) {
+            const float p_a = average(sigma_a) / m, p_s = average(sigma_s) / m;
+            if (u < p_a) return {TrackEvent::Absorbed, t, i};
+            if (u < p_a + p_s) {
+                *beta *= sigma_s / (m * p_s);
+                return {TrackEvent::Scattered, t, i};
+            }
+            p_null = 1.0f - p_a - p_s;
+        } else {
+            const float p_t = average(sigma_s + sigma_a) / m;
+            if (u < p_t) {
+                *beta *= sigma_s / (m * p_t);  // the albedo, per channel
+                return {TrackEvent::Scattered, t, i};
+            }
+            p_null = 1.0f - p_t;
         }
         // Null collision: weight (μ − σ_t)/(μ p_n), exactly 1 for grey media.
-        const float p_n = 1.0f - p_a - p_s;
-        if (p_n > 0.0f) *beta *= glm::max(Color(m) - sigma_s - sigma_a, Color(0.0f)) / (m * p_n);
+        if (p_null > 0.0f)
+            *beta *= glm::max(Color(m) - sigma_s - sigma_a, Color(0.0f)) / (m * p_null);
         if (!media[i].next_tentative(rng, &t_next[i], &mu[i])) {
             if (media[i].exhausted()) return {TrackEvent::Absorbed, t, i};  // opaque: see header
             t_next[i] = kInfinity;

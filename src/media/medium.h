@@ -119,11 +119,18 @@ struct TrackResult {
     int medium = -1;  ///< which medium scattered
 };
 
+/// What delta tracking does at a real collision.
+enum class Collision {
+    Analog,    ///< absorb with probability σ_a/σ_t (photons: power stays constant)
+    Weighted,  ///< always scatter, *beta multiplied by the albedo σ_s/σ_t (camera paths, which
+               ///< end by the caller's Russian roulette on the throughput)
+};
+
 /// Weighted delta tracking through all media on (0, t_max) of a unit-direction ray. Multiplies
-/// *beta by the null/scatter weights (exactly 1 for grey media). Unbiased for any majorant that
-/// bounds σ_t; t_max may be infinite.
+/// *beta by the null/scatter weights (exactly 1 for grey media in Analog mode). Unbiased for any
+/// majorant that bounds σ_t; t_max may be infinite.
 TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
-                        Color* beta);
+                        Color* beta, Collision collision = Collision::Analog);
 
 /// Transmittance exp(−∫σ_t) on (0, t_max), per channel, by residual ratio tracking: the control
 /// part exp(−σ_t ∫ d_min) exactly (all of it in homogeneous media and uniform cells), the residual

@@ -255,11 +255,11 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                 std::to_string(result.emitted) + " emitted (photons.max_emitted reached)");
     }
     if (result.emitted > 0) result.capped_power /= double(result.emitted);
-    if (result.capped_power > 0.01) {
+    if (result.capped_power > 0.001) {
         char text[200];
         std::snprintf(text, sizeof text,
-                      "photons.max_bounces = %d cut %llu photon paths carrying %.1f%% of the "
-                      "emitted power; raise it for media of high albedo",
+                      "photons.max_bounces = %d cut %llu photon paths carrying %.2g%% of the "
+                      "emitted power; raise it (the photon maps miss that light)",
                       settings.max_bounces, static_cast<unsigned long long>(result.capped),
                       100.0 * result.capped_power);
         result.warnings.push_back(text);

@@ -43,11 +43,13 @@ constexpr float kWidth = 200.0f;
 struct Tally {
     double sum[3] = {0.0, 0.0, 0.0};
     double sum2[4] = {0.0, 0.0, 0.0, 0.0};  // squares of the three, and of down = [1] + [2]
+    double capped_power = 0.0;               // power of the paths the bounce cap cut
     uint64_t absorbed = 0, bounce_cap = 0, edge = 0;
 
     void add(const Tally& o) {
         for (int i = 0; i < 3; ++i) sum[i] += o.sum[i];
         for (int i = 0; i < 4; ++i) sum2[i] += o.sum2[i];
+        capped_power += o.capped_power;
         absorbed += o.absorbed;
         bounce_cap += o.bounce_cap;
         edge += o.edge;
@@ -97,7 +99,9 @@ SlabResult run_slab(const SlabSettings& s) {
     const Timer timer;
     SlabResult result;
     result.photons = s.photons;
-    result.tau_model = std::isinf(s.tau) ? semi_infinite_tau(s.max_bounces) : s.tau;
+    // A slab thicker than the stand-in is the same medium for every photon that can be traced
+    // (and a huge finite tau would leave float positions unable to advance a free path).
+    result.tau_model = std::min(s.tau, semi_infinite_tau(s.max_bounces));
     result.tau_per_voxel = result.tau_model / s.voxels;
 
     TempFile vdb;
@@ -145,6 +149,7 @@ SlabResult run_slab(const SlabSettings& s) {
                 }
                 if (path.end == PathEnd::BounceCap) {
                     ++t.bounce_cap;
+                    t.capped_power += average(path.power);
                     continue;
                 }
                 const double power = average(path.power);
@@ -163,6 +168,7 @@ SlabResult run_slab(const SlabSettings& s) {
     result.tt = estimate(total.sum[1] + total.sum[2], total.sum2[3], s.photons);
     result.absorbed = total.absorbed;
     result.bounce_cap = total.bounce_cap;
+    result.bounce_cap_power = total.capped_power / static_cast<double>(s.photons);
     result.edge = total.edge;
     result.time_s = timer.seconds();
     return result;

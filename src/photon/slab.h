@@ -8,6 +8,7 @@
 // draws from Rng(seed, i, kSlabStream) and tallies merge in index order, for any thread count.
 
 #include "media/march_settings.h"
+#include "scene/scene_desc.h"
 
 #include <cstdint>
 
@@ -21,7 +22,8 @@ struct SlabSettings {
     FreePathMethod method = FreePathMethod::March;
     float step_voxels = 1.0f;  ///< march step in voxels (the scene default), > 0
     uint64_t seed = 1;
-    int max_bounces = 64;  ///< interactions per photon (the photon pass's default), >= 1
+    int max_bounces = PhotonSettings{}.max_bounces;  ///< interactions per photon (the photon
+                                                     ///< pass's default safety limit), >= 1
     int voxels = 32;       ///< voxels across the thickness, >= 1
 };
 
@@ -39,8 +41,12 @@ struct SlabResult {
     uint64_t photons = 0;
     uint64_t absorbed = 0;    ///< ended by Russian roulette
     uint64_t bounce_cap = 0;  ///< still alive after max_bounces interactions (their power is lost)
+    double bounce_cap_power = 0.0;  ///< that lost power as a share of the power sent in
     uint64_t edge = 0;        ///< last interaction outside the slab's uniform part (expected 0)
-    double tau_model = 0.0;   ///< optical thickness traced (semi-infinite: the finite stand-in)
+    /// Optical thickness traced: tau, or the finite stand-in of a semi-infinite slab when tau is
+    /// infinite or thicker than it (semi_infinite_tau: no photon path of at most max_bounces
+    /// interactions tells them apart).
+    double tau_model = 0.0;
     double tau_per_voxel = 0.0;   ///< optical depth of one voxel across the thickness
     bool delta_in_march = false;  ///< method march, but the slab is stiff: free paths delta-tracked
     double time_s = 0.0;

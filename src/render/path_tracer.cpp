@@ -17,8 +17,9 @@ float power_heuristic(float a, float b) {
 }
 
 // Russian roulette after three vertices once the throughput has fallen below 1 (as pbrt-v4):
-// survival probability = max channel of the throughput. Paths in albedo-1 media end by escaping
-// or at max_depth, never by a growing weight.
+// survival probability = max channel of the throughput, survivors divided by it. Scattering in
+// media multiplies the throughput by the albedo (Collision::Weighted), so this is what ends paths
+// in absorbing media; paths in albedo-1 media end by escaping, max_depth being a safety limit.
 bool survive(int depth, Color* beta, Rng& rng) {
     const float m = max_component(*beta);
     if (depth < 3 || m >= 1.0f) return true;
@@ -95,7 +96,8 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
             if (hit) t_max = hit->t;
         }
         if (!ts.media.empty()) {
-            const TrackResult tr = delta_track(ts.media, ray, t_max, rng, &beta);
+            const TrackResult tr =
+                delta_track(ts.media, ray, t_max, rng, &beta, Collision::Weighted);
             if (tr.event == TrackEvent::Absorbed) break;
             if (tr.event == TrackEvent::Scattered) {
                 if (depth >= max_depth_) {

@@ -119,6 +119,14 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
             (p.time_budget > 0.0f && timer.seconds() >= p.time_budget))
             break;
     }
+    if (report.samples > 0 && report.depth_capped > report.samples / 1000) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "render.max_depth = %d cut %.2g%% of the camera samples while they still "
+                      "carried light; raise it (the image misses that light)",
+                      desc.render.max_depth, 100.0 * double(report.depth_capped) / report.samples);
+        warn(&report, text);
+    }
     const int n = static_cast<int>(report.iterations.size());
     if (n > 1) out.film.scale(1.0f / static_cast<float>(n));
     report.scene = desc.path;

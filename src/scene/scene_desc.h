@@ -89,7 +89,10 @@ enum class Integrator { Path, Photon };
 struct RenderSettings {
     Integrator integrator = Integrator::Photon;
     int spp = 16;        ///< samples per pixel, >= 1
-    int max_depth = 64;  ///< scattering/bounce vertices per path, >= 1 (1 = direct light only)
+    /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
+    /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
+    /// cuts is reported (a warning above 0.1% of the samples).
+    int max_depth = 1000000;
     uint64_t seed = 1;   ///< results are a function of the seed alone
     int threads = 0;     ///< 0 = all cores
 };
@@ -101,7 +104,9 @@ struct PhotonSettings {
     uint64_t caustic = 50000;  ///< L S+ D paths
     uint64_t volume = 100000;  ///< scattering events in media after at least one interaction
     uint64_t max_emitted = 0;  ///< cap on emitted photons; 0 = 100 x the largest budget
-    int max_bounces = 64;      ///< interactions per photon path, >= 1
+    /// Interactions per photon path, >= 1. Photons end by Russian roulette on the albedo; this is
+    /// a safety limit, and the power it cuts is reported (a warning above 0.1%).
+    int max_bounces = 1000000;
     /// Share of sun and environment photons aimed at the media's bounding sphere (reweighted,
     /// so unbiased; scene/light.h PhotonFocus); 0 = as many as its cross-section gets. Off by
     /// default: on smoke.json it trades photon-pass time for noise at about the same error per

@@ -93,7 +93,7 @@ const char* to_string(FreePathMethod t) {
 namespace {
 
 constexpr int kMaxResolution = 16384;
-constexpr int kMaxDepthLimit = 100000;
+constexpr int kMaxDepthLimit = 100000000;
 constexpr uint64_t kMaxPhotonBudget = 1000000000;  // 1e9 records x ~20 bytes = 20 GB per map
 constexpr int kMaxGatherK = 100000;
 constexpr int kMaxGatherRays = 4096;

@@ -7,9 +7,11 @@
 #include "render/path_tracer.h"
 
 #include "core/parallel.h"
+#include "core/sampling.h"
 #include "media/volume_gen.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
+#include "slab_reference.h"
 
 #include <gtest/gtest.h>
 
@@ -208,6 +210,50 @@ TEST(DepthCap, EveryPathInADeepConservativeMediumIsCountedAsCut) {
         RenderStats stats;
         render_path(*load_scene(d), d.render, true, &stats);
         EXPECT_EQ(stats.capped, medium ? stats.samples : 0u);
+    }
+}
+
+// The path tracer in the slab of `fogmap validate` (issue 15): a laterally wide homogeneous slab
+// of unit thickness under a sun at normal incidence (irradiance 1). Diffuse reflectance is
+// Rd = ∫ L_up cos θ dω / E: rays leave a point just above the slab downwards in cosine-weighted
+// directions, so Rd = π × mean radiance; Td likewise from below, and Tt = Td + e^{−τ} (the
+// unscattered beam, a delta the rays never see). Scattering weighs the throughput by the albedo,
+// so paths end by Russian roulette: a roulette that forgot to divide by its survival probability
+// would lose energy here. Reference: adding-doubling (slab_reference.h); tolerance 3 SE.
+TEST(PathTracedSlab, MatchesAddingDoublingWithRouletteActive) {
+    struct Case {
+        double tau, albedo, g;
+    };
+    for (const Case c : {Case{2.0, 0.9, 0.75}, Case{10.0, 0.99, 0.75}}) {
+        SceneDesc d;
+        d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), 1.0f));
+        d.media.push_back(homogeneous(Box3{Vec3(-1e4f, -1.0f, -1e4f), Vec3(1e4f, 0.0f, 1e4f)},
+                                      Color(float(c.albedo * c.tau)),
+                                      Color(float((1.0 - c.albedo) * c.tau)), float(c.g)));
+        const auto scene = load_scene(d);
+        const PathTracer tracer(*scene, RenderSettings{}.max_depth);
+        PathTracer::ThreadState ts = tracer.make_state();
+        // π × the mean radiance over cosine-weighted directions about `up`, from `origin`.
+        auto flux = [&](const Vec3& origin, const Vec3& up, uint64_t stream) {
+            constexpr int kN = 40000;
+            double sum = 0.0, sum2 = 0.0;
+            for (int i = 0; i < kN; ++i) {
+                Rng rng(stream, i);
+                const Vec3 w = sample_cosine_hemisphere(up, Vec2(rng.uniform(), rng.uniform()));
+                const double v = kPi * tracer.radiance(Ray{origin, -w}, rng, ts).x;
+                sum += v;
+                sum2 += v * v;
+            }
+            const double mean = sum / kN;
+            return MeanEstimate{mean, std::sqrt(std::max(0.0, sum2 / kN - mean * mean) / kN)};
+        };
+        const slab_reference::SlabValues ref =
+            slab_reference::adding_doubling(c.tau, c.albedo, c.g);
+        const MeanEstimate rd = flux(Vec3(0.0f, 1e-3f, 0.0f), Vec3(0.0f, 1.0f, 0.0f), 41);
+        const MeanEstimate td = flux(Vec3(0.0f, -1.001f, 0.0f), Vec3(0.0f, -1.0f, 0.0f), 43);
+        EXPECT_NEAR(rd.mean, ref.rd.mean, 3.0 * rd.standard_error) << "Rd, tau " << c.tau;
+        EXPECT_NEAR(td.mean + std::exp(-c.tau), ref.tt.mean, 3.0 * td.standard_error)
+            << "Tt, tau " << c.tau;
     }
 }
 

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace fogmap {
 namespace {
 
@@ -22,6 +24,34 @@ TEST(Progressive, RadiusSequenceFollowsKnausZwicker) {
         product *= (i + alpha) / (i + 1.0);
         EXPECT_NEAR(r2 * r2, r1 * r1 * product, 1e-5 * r1 * r1) << "iteration " << i + 1;
         EXPECT_NEAR(double(r3) * r3 * r3, r1 * r1 * r1 * product, 1e-5 * r1 * r1 * r1);
+    }
+}
+
+// The radii the run loop actually gathers with (the report's, per iteration) follow the schedule's
+// definition: r_i^d = r_1^d Π_{j<i} (j + α)/(j + 1) with d = 3 for the volume map and d = 2 for
+// the surface maps (a volume radius shrunk with the surface exponent would fail here).
+TEST(Progressive, RunLoopShrinksVolumeRadiiAsCubesAndSurfaceRadiiAsSquares) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    const double alpha = 0.6;
+    const Report r =
+        run_pipeline(load_scene_desc(path, {"camera.width=16", "camera.height=9", "render.spp=1",
+                                            "photons.volume=2000", "photons.global=2000",
+                                            "progressive.iterations=6", "progressive.alpha=0.6"}),
+                     true)
+            .report;
+    ASSERT_EQ(r.iterations.size(), 6u);
+    const IterationReport::Radii first = r.iterations[0].radii;
+    ASSERT_GT(first.volume, 0.0f);
+    ASSERT_GT(first.global, 0.0f);
+    double product = 1.0;
+    for (size_t i = 1; i < r.iterations.size(); ++i) {
+        product *= (i + alpha) / (i + 1.0);
+        const IterationReport::Radii& ri = r.iterations[i].radii;
+        EXPECT_NEAR(std::pow(ri.volume / first.volume, 3.0), product, 1e-5)
+            << "iteration " << i + 1;
+        EXPECT_NEAR(std::pow(ri.global / first.global, 2.0), product, 1e-5)
+            << "iteration " << i + 1;
+        EXPECT_NEAR(std::pow(ri.caustic / first.caustic, 2.0), product, 1e-5);
     }
 }
 

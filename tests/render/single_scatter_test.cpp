@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace fogmap {
@@ -100,11 +101,15 @@ TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
     light.intensity = Color(3.0f);
     light.cone_angle_deg = 30.0f;
     light.cone_delta_deg = 10.0f;
-    const Light l = make_light(light);
-    // The light's own emission (cone falloff / r²) times the medium's transmittance.
+    // The spot's emission written out here (README, light `spot`): intensity I within 20° of the
+    // axis, falling as the cubic smoothstep t²(3 − 2t) of the cosine to 0 at 30°, over r², times
+    // the medium's transmittance.
+    const double cos_outer = std::cos(30.0 * kPi / 180.0), cos_inner = std::cos(20.0 * kPi / 180.0);
     const double expected = quadrature(200000, [&](const Vec3& x) {
-        const LightSample s = sample_light(l, x, Vec2(0.5f));
-        return s.Li.x * std::exp(-kSigmaT * s.dist);
+        const Vec3 to = x - light.position;
+        const double r = glm::length(to), c = -to.y / r;  // cosine to the axis (0, -1, 0)
+        const double t = std::clamp((c - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0);
+        return 3.0 * t * t * (3.0 - 2.0 * t) / (r * r) * std::exp(-kSigmaT * r);
     });
     expect_matches(light, {0, 2}, expected);
 }

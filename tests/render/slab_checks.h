@@ -113,4 +113,22 @@ inline void check_semi_infinite(double tau, double albedo, FreePathMethod method
     expect_match(r.rd, {slab_reference::semi_infinite_isotropic_rd(albedo), 0.0}, label(s, "Rd"));
 }
 
+/// Adding-doubling values (slab_reference::adding_doubling, whose own accuracy ~1e-5 is taken as
+/// its standard error) with fogmap's *default* settings — free paths, march step and the bounce
+/// limit as a user gets them — and nothing lost to the bounce limit above 0.1% of the power.
+inline void check_adding_doubling(double tau, double albedo, double g, uint64_t photons,
+                                  uint64_t seed = 7) {
+    SlabSettings s;  // defaults, but for the medium and the photon count
+    s.tau = tau;
+    s.albedo = albedo;
+    s.g = g;
+    s.photons = photons;
+    s.seed = seed;
+    const SlabResult r = run_slab(s);
+    const slab_reference::SlabValues ref = slab_reference::adding_doubling(tau, albedo, g);
+    EXPECT_LE(r.bounce_cap_power, 0.001) << label(s, "bounce cap");
+    expect_match(r.rd, {ref.rd.mean, 1e-5}, label(s, "Rd vs adding-doubling"));
+    expect_match(r.tt, {ref.tt.mean, 1e-5}, label(s, "Tt vs adding-doubling"));
+}
+
 }  // namespace fogmap::slab_checks

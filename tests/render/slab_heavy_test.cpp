@@ -54,5 +54,14 @@ TEST(SlabValidationHeavy, StiffSlabMatchesSemiInfiniteAtDefaultMarchStep) {
         check_semi_infinite(tau, 0.9, FreePathMethod::March, kPhotons);
 }
 
+TEST(SlabValidationHeavy, HighAlbedoSlabsMatchAddingDoublingWithDefaultFlags) {
+    check_adding_doubling(10.0, 0.99, 0.75, kPhotons);
+    check_adding_doubling(100.0, 0.999, 0.99, kPhotons / 4);
+    check_adding_doubling(10.0, 0.999, -0.5, kPhotons);
+    check_adding_doubling(kInf, 0.99, -0.9, kPhotons / 4);
+    check_adding_doubling(kInf, 0.999, 0.875, kPhotons / 20);
+    check_adding_doubling(1e12, 0.9, 0.75, kPhotons / 4);
+}
+
 }  // namespace
 }  // namespace fogmap

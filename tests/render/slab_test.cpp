@@ -60,6 +60,38 @@ TEST(SlabValidation, StiffSlabMatchesSemiInfiniteAtDefaultMarchStep) {
         check_semi_infinite(tau, 0.9, FreePathMethod::March, kPhotons);
 }
 
+// The adding-doubling reference itself reproduces published values: MCML's validation slab (van de
+// Hulst 1980 via Wang et al. 1995), Prahl's semi-infinite isotropic slab at albedo 0.8 (iadpython
+// test suite, UR1 = 0.28525), Chandrasekhar's H-function at albedo 0.9 and 0.99, and R + T = 1
+// for a conservative slab.
+TEST(AddingDoubling, ReproducesPublishedValues) {
+    const slab_reference::SlabValues mcml = slab_reference::adding_doubling(2.0, 0.9, 0.75);
+    EXPECT_NEAR(mcml.rd.mean, 0.09739, 1e-5);
+    EXPECT_NEAR(mcml.tt.mean, 0.66096, 1e-5);
+    EXPECT_NEAR(slab_reference::adding_doubling(kInf, 0.8, 0.0).rd.mean, 0.28525, 1e-5);
+    for (double a : {0.9, 0.99})
+        EXPECT_NEAR(slab_reference::adding_doubling(kInf, a, 0.0).rd.mean,
+                    slab_reference::semi_infinite_isotropic_rd(a), 1e-5);
+    const slab_reference::SlabValues white = slab_reference::adding_doubling(4.0, 1.0, 0.5);
+    EXPECT_NEAR(white.rd.mean + white.tt.mean, 1.0, 1e-6);
+}
+
+// Issue 15: high albedo, thick, semi-infinite, forward and backward g — with default flags (the
+// default bounce limit once cut 90% of the photons at tau 100, albedo 0.999, g 0.99). A finite
+// but huge tau is the semi-infinite medium (float positions cannot resolve its free paths, so it
+// is traced as the semi-infinite stand-in).
+TEST(SlabValidation, HighAlbedoThickSlabsMatchAddingDoublingWithDefaultFlags) {
+    check_adding_doubling(10.0, 0.99, 0.75, 40000);
+    check_adding_doubling(100.0, 0.999, 0.99, 20000);
+    check_adding_doubling(10.0, 0.999, -0.5, 40000);
+}
+
+TEST(SlabValidation, SemiInfiniteHighAlbedoSlabsMatchAddingDoublingWithDefaultFlags) {
+    check_adding_doubling(kInf, 0.99, -0.9, 20000);
+    check_adding_doubling(kInf, 0.999, 0.875, 5000);
+    check_adding_doubling(1e15, 0.9, 0.75, 20000);
+}
+
 // The cap drops photons still alive after max_bounces interactions; in a conservative slab their
 // power is exactly what Rd + Tt miss.
 TEST(SlabValidation, BounceCapIsCountedAndIsAllThatIsLost) {
