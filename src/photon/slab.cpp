@@ -36,7 +36,10 @@ constexpr uint64_t kChunk = 1024;
 // σ_t · 100 (probability < 0.01 e^{−100τ} per scattering), or a random walk of > 10⁴ steps in
 // thick slabs. Escapes are classified by the sign of the direction's y, which in an infinite
 // slab tells the face a photon leaves through; photons whose last interaction lies outside the
-// uniform part are counted ("edge") and expected to be 0.
+// uniform part are counted ("edge") and expected to be 0. Beyond τ = 100 the width (and the
+// beam's) shrink as 100/τ: the same safety in optical depths, and coordinates small enough that
+// float positions resolve the free paths of a τ = 1e6 slab (scene.cpp refuses media where they
+// cannot).
 constexpr float kWidth = 200.0f;
 
 // Per photon: the power leaving up, down unscattered and down scattered.
@@ -89,7 +92,10 @@ double semi_infinite_tau(int max_bounces) {
     const double k = static_cast<double>(max_bounces) + 1.0;
     double x = 1.0 + 1e-6;
     while (k * (x - 1.0 - std::log(x)) < 60.0) x *= 1.001;
-    return std::max(100.0, x * k);
+    // At most 1e6: deeper, free paths fall below float resolution (scene.cpp refuses such media),
+    // and no walk of up to 1e8 steps goes that deep (its depth spreads as sqrt(steps) free paths:
+    // probability below e^-1000).
+    return std::clamp(x * k, 100.0, 1e6);
 }
 
 SlabResult run_slab(const SlabSettings& s) {
@@ -106,9 +112,10 @@ SlabResult run_slab(const SlabSettings& s) {
 
     TempFile vdb;
     const float hy = 1.0f / static_cast<float>(s.voxels);
+    const float width = kWidth * static_cast<float>(std::min(1.0, 100.0 / result.tau_model));
     write_float_grid(
         vdb.path, "density", 2, s.voxels, 2, [](int, int, int) { return 1.0f; },
-        Vec3(kWidth, hy, kWidth), Vec3(-0.5f * kWidth, -1.0f + 0.5f * hy, -0.5f * kWidth));
+        Vec3(width, hy, width), Vec3(-0.5f * width, -1.0f + 0.5f * hy, -0.5f * width));
     SceneDesc desc;
     desc.path = "<slab>";
     MediumDesc m;
@@ -126,7 +133,7 @@ SlabResult run_slab(const SlabSettings& s) {
     march.step_voxels = s.step_voxels;
     const PhotonTracer tracer(*scene, march, s.max_bounces);  // stores nothing: no map takes photons
     result.delta_in_march = s.method == FreePathMethod::March && tracer.marcher().any_stiff();
-    const float uniform_half = 0.5f * kWidth;
+    const float uniform_half = 0.5f * width, beam = width / kWidth;
     const uint64_t chunks = (s.photons + kChunk - 1) / kChunk;
     std::vector<Tally> tallies(chunks);
     tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
@@ -136,8 +143,9 @@ SlabResult run_slab(const SlabSettings& s) {
             Tally& t = tallies[c];
             for (uint64_t i = c * kChunk; i < std::min(s.photons, (c + 1) * kChunk); ++i) {
                 Rng rng(s.seed, i, kSlabStream);
-                // Collimated, normal incidence, entering within ½ thickness of the axis.
-                const Vec3 o(rng.uniform() - 0.5f, 1.0f, rng.uniform() - 0.5f);
+                // Collimated, normal incidence, entering within ½ thickness of the axis (scaled as
+                // the width).
+                const Vec3 o(beam * (rng.uniform() - 0.5f), 1.0f, beam * (rng.uniform() - 0.5f));
                 const TracedPath path = tracer.trace(Ray{o, Vec3(0.0f, -1.0f, 0.0f)}, Color(1.0f),
                                                      rng, samplers, 0, nullptr);
                 if (path.interactions > 0 && (std::abs(path.ray.o.x) > uniform_half ||

@@ -54,7 +54,7 @@ struct SlabResult {
 
 /// Optical thickness that stands in for a semi-infinite slab: a photon with at most
 /// `max_bounces` interactions reaches its bottom with probability below 1e-26 (Chernoff bound on
-/// the sum of max_bounces + 1 unit-mean exponential flights); at least 100.
+/// the sum of max_bounces + 1 unit-mean exponential flights); at least 100, at most 1e6.
 double semi_infinite_tau(int max_bounces);
 
 /// Builds the slab (a VDB file in the temp folder, removed once loaded) and traces the beam.

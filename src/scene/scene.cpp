@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <map>
 
@@ -17,6 +18,30 @@ std::string resolve(const SceneDesc& desc, const std::string& file) {
 
 MediumParams medium_params(const MediumDesc& m) {
     return MediumParams{m.sigma_s * m.density_scale, m.sigma_a * m.density_scale, m.g};
+}
+
+/// A medium's mean free path at its densest must span a few float steps of the coordinates it
+/// lies at, or positions stop advancing along free paths and it renders as another medium (a
+/// surface-like random walk, far brighter than the opaque medium it is): σ_t,max × max |x| must
+/// stay within 2^20 (eight float steps per free path; at three, an opaque box rendered 7% too
+/// bright). Such a medium is opaque at every scale an image resolves; the error says by how much
+/// to thin it.
+void check_resolvable(const Medium& m, const SceneDesc& desc, size_t index) {
+    constexpr double kLimit = 1048576.0;  // 2^20
+    const Box3& b = m.world_bounds();
+    if (b.empty()) return;
+    const double x = std::max(max_component(glm::abs(b.lo)), max_component(glm::abs(b.hi)));
+    const double sigma =
+        double(max_component(m.sigma_t())) * (m.grid() ? m.grid()->max_density() : 1.0);
+    if (!(sigma * x > kLimit)) return;
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "extinction up to %.3g per world unit at coordinates up to %.3g: its mean free "
+                  "path is below the float resolution there, so it cannot be traced; it is opaque "
+                  "at every scale an image resolves — lower density_scale, sigma_s or sigma_a "
+                  "(extinction at most %.3g here), or move it nearer the origin",
+                  sigma, x, kLimit / x);
+    throw InputError(desc.path, "/media/" + std::to_string(index), text);
 }
 
 }  // namespace
@@ -93,6 +118,7 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         auto& grid = grids[{path, m.grid}];
         if (!grid) grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
+        check_resolvable(scene->media.back(), desc, i);
         scene->bounds.extend(scene->media.back().world_bounds());
     }
     scene->bounds.extend(desc.camera.position);
@@ -110,6 +136,7 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
             bounds.hi += pad;
         }
         scene->media.push_back(Medium::homogeneous(medium_params(m), bounds));
+        check_resolvable(scene->media.back(), desc, i);
     }
     for (const Medium& m : scene->media) scene->bounds.extend(m.world_bounds());
     if (!scene->bounds.empty()) scene->offset_floor = 1e-6f * glm::length(scene->bounds.extent());
