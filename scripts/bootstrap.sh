@@ -6,10 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 action="${1:-render}"
-packages=(cmake g++ make pkg-config ccache
-  libopenvdb-dev libboost-iostreams-dev libblosc-dev libembree-dev libopenexr-dev libglm-dev
-  libtbb-dev nlohmann-json3-dev libcli11-dev libpng-dev libtinyobjloader-dev
-  googletest libgtest-dev libbenchmark-dev libnanoflann-dev libnanovdb-dev)
+mapfile -t packages < <(grep -v '^\s*#' scripts/debian-packages | grep -v '^\s*$')
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -20,6 +17,10 @@ if [ ${#missing[@]} -gt 0 ]; then
   apt-get update -q
   apt-get install -y -q --no-install-recommends "${missing[@]}" </dev/null
 fi
+
+# Every system header the code includes must come from a package installed above (a header only
+# present on the developer's machine once broke this script on a fresh one).
+bash scripts/check_headers.sh
 
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release
 cmake --build build -j2
