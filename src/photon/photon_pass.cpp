@@ -5,32 +5,29 @@
 #include "core/timer.h"
 #include "media/phase.h"
 #include "media/ray_march.h"
+#include "photon/streams.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 
 namespace fogmap {
 
 namespace {
 
-constexpr uint64_t kPhotonStream =
-    0x50484F544F4Eull;  // "PHOTON": photons never share pixels' streams
-constexpr uint64_t kBatch = 1u << 15;
+constexpr uint64_t kBatch = 1u << 15;  // attempts of the fastest stream per round
 constexpr uint64_t kChunk = 512;
+constexpr uint64_t kPilot = 8192;      // attempts per stream before the allocation
+constexpr uint64_t kFirstRound = 256;  // the pilot's first round, kept whole by every map
 
 constexpr int kGlobal = static_cast<int>(PhotonMapId::Global);
 constexpr int kCaustic = static_cast<int>(PhotonMapId::Caustic);
 constexpr int kVolume = static_cast<int>(PhotonMapId::Volume);
-
-/// Lights chosen in proportion to their power; a photon leaves light l with Φ_l / avg(Φ_l).
-struct Emitter {
-    std::vector<float> light_cdf;
-    std::vector<Color> light_relative_power;
-};
 
 }  // namespace
 
@@ -38,7 +35,9 @@ PhotonTracer::PhotonTracer(const Scene& scene, const MarchSettings& march, int m
     : scene_(scene),
       marcher_(scene.media, march),
       method_(march.method),
-      max_bounces_(max_bounces) {}
+      max_bounces_(max_bounces) {
+    for (const Medium& m : scene.media) media_bounds_.extend(m.world_bounds());
+}
 
 TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                std::vector<Medium::Sampler>& samplers, uint32_t index,
@@ -48,7 +47,10 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     auto deposit = [&](int map, const Photon& photon) {
         out->push_back({index, static_cast<PhotonMapId>(map), photon});
     };
-    auto ended = [&](PathEnd end, int depth) { return TracedPath{end, ray, power, depth}; };
+    bool met_media = false;
+    auto ended = [&](PathEnd end, int depth) {
+        return TracedPath{end, ray, power, depth, met_media};
+    };
     bool specular_chain = true;  // every interaction so far was specular
     const bool has_media = !samplers.empty();
     const int max_bounces = max_bounces_;
@@ -60,6 +62,10 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
             if (hit) t_max = hit->t;
         }
         if (has_media) {
+            float enter, leave;
+            met_media =
+                met_media || (!media_bounds_.empty() &&
+                              intersect_box(media_bounds_, ray, 0.0f, t_max, &enter, &leave));
             bool scattered = false;
             Vec3 x;
             if (method_ == FreePathMethod::March) {
@@ -130,6 +136,30 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     return ended(PathEnd::BounceCap, max_bounces);
 }
 
+namespace {
+
+/// What one chunk of one stream's attempts produced.
+struct ChunkOut {
+    std::vector<TaggedPhoton> photons;
+    uint64_t accepted = 0;      ///< attempts that yielded a photon
+    uint64_t met_media = 0;     ///< photon paths that entered the media's bounds
+    uint64_t interactions = 0;  ///< the work traced (a deterministic cost measure)
+    uint64_t longest = 0;       ///< the most interactions of one path
+    uint64_t capped = 0;
+    double capped_power = 0.0;  ///< Σ average(relative power) of paths the bounce limit cut
+};
+
+/// Per (map, stream): photons stored, their summed relative power, and, once closed, the
+/// attempt count at which the map stopped taking that stream's photons.
+struct Pair {
+    uint64_t stored = 0;
+    double power = 0.0;
+    bool closed = false;
+    uint64_t stop_at = 0;
+};
+
+}  // namespace
+
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
                                const MarchSettings& march, uint64_t seed, bool quiet) {
     const Timer timer;
@@ -148,113 +178,231 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     }
     if (largest == 0) return result;
 
-    PhotonTracer tracer(scene, march, settings.max_bounces);
-    Emitter emitter;
-    float cumulative = 0.0f;
-    for (const Light& l : scene.lights) {
-        const Color power = light_power(l, scene.bounds);
-        const float avg = average(power);
-        cumulative += avg;
-        emitter.light_cdf.push_back(cumulative);
-        emitter.light_relative_power.push_back(avg > 0.0f ? power / avg : Color(0.0f));
-    }
-    result.total_power = cumulative;
-    if (!(cumulative > 0.0f)) {
+    const StreamSet set = make_streams(scene, maps[kCaustic] != nullptr, maps[kVolume] != nullptr);
+    for (const Light& l : scene.lights) result.total_power += average(light_power(l, scene.bounds));
+    if (set.streams.empty()) {
         result.warnings.push_back("no light emits power: no photons traced");
         return result;
     }
-    // Sun and sky photons concentrate on the media when a volume map is wanted and
-    // photons.media_fraction asks for it (light.h PhotonFocus).
-    PhotonFocus focus;
-    if (maps[kVolume])
-        for (const Medium& m : scene.media) focus.bounds.extend(m.world_bounds());
-    focus.fraction = settings.media_fraction;
-    const PhotonFocus* focused = focus.bounds.empty() || focus.fraction <= 0.0f ? nullptr : &focus;
-    // Light ∝ power, then a photon from it, traced.
-    struct ChunkOut {
-        std::vector<TaggedPhoton> photons;
-        uint64_t capped = 0;
-        double capped_power = 0.0;  // Σ average(power) of capped paths (a photon starts at ~1)
-    };
-    auto emit = [&](uint32_t index, Rng& rng, std::vector<Medium::Sampler>& samplers,
-                    ChunkOut& out) {
-        const float pick = rng.uniform() * emitter.light_cdf.back();
-        const size_t li = std::min<size_t>(
-            std::upper_bound(emitter.light_cdf.begin(), emitter.light_cdf.end(), pick) -
-                emitter.light_cdf.begin(),
-            emitter.light_cdf.size() - 1);
-        Ray ray;
-        float weight;
-        if (!sample_photon(scene.lights[li], scene.bounds, focused, rng, &ray, &weight)) return;
-        const TracedPath path = tracer.trace(ray, emitter.light_relative_power[li] * weight, rng,
-                                             samplers, index, &out.photons);
-        if (path.end == PathEnd::BounceCap) {
-            ++out.capped;
-            out.capped_power += average(path.power);
-        }
-    };
+    const size_t n_streams = set.streams.size();
+    PhotonTracer tracer(scene, march, settings.max_bounces);
+    std::array<bool, 3> open;  // maps still taking photons
+    for (int m = 0; m < 3; ++m) open[m] = maps[m] && maps[m]->budget > 0;
+    tracer.set_store(open);
 
-    const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
-    std::array<uint64_t, 3> full_at{0, 0, 0};
-    auto unfilled = [&] {
-        for (int m = 0; m < 3; ++m)
-            if (maps[m] && maps[m]->budget > 0 && full_at[m] == 0) return true;
-        return false;
-    };
-    Progress progress("photons", 1000, quiet);
-    uint64_t shown = 0;
-    while (unfilled() && result.emitted < cap) {
-        const uint64_t n = std::min(kBatch, cap - result.emitted);
-        const uint64_t chunks = (n + kChunk - 1) / kChunk;
-        std::vector<ChunkOut> out(chunks);
-        std::array<bool, 3> store;
-        for (int m = 0; m < 3; ++m) store[m] = maps[m] && full_at[m] == 0;
-        tracer.set_store(store);
-        const uint64_t base = result.emitted;
-        tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
+    std::vector<uint64_t> attempts(n_streams, 0), interactions(n_streams, 0);
+    std::vector<StreamReport>& streams = result.streams;
+    streams.resize(n_streams);
+    for (size_t s = 0; s < n_streams; ++s) streams[s].name = set.streams[s].name;
+    std::vector<std::array<Pair, 3>> pairs(n_streams);
+    std::array<std::vector<uint16_t>, 3> photon_stream;  // each stored photon's stream
+
+    // Emits count[s] more attempts of every stream in parallel chunks and merges them in a fixed
+    // order, stream by stream and attempt by attempt. A map closes at the attempt whose path fills
+    // its budget (keeping that whole path): for that stream at that attempt, for the streams
+    // merged before it at the end of this round, for those after it at its start. Not during the
+    // first round, though, which every map keeps whole: every stream must have attempts behind
+    // every map, or the sum over streams would miss what a stream could have brought.
+    auto emit = [&](const std::vector<uint64_t>& count) {
+        const bool first = attempts[0] == 0;
+        struct Job {
+            size_t stream;
+            uint64_t begin, end;
+        };
+        std::vector<Job> jobs;
+        for (size_t s = 0; s < n_streams; ++s)
+            for (uint64_t b = 0; b < count[s]; b += kChunk)
+                jobs.push_back({s, attempts[s] + b, attempts[s] + std::min(count[s], b + kChunk)});
+        std::vector<ChunkOut> out(jobs.size());
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 1), [&](const auto& r) {
             std::vector<Medium::Sampler> samplers;
             for (const Medium& m : scene.media) samplers.emplace_back(m);
-            for (uint64_t c = r.begin(); c != r.end(); ++c) {
-                for (uint64_t i = c * kChunk; i < std::min(n, (c + 1) * kChunk); ++i) {
-                    Rng rng(seed, base + i, kPhotonStream);
-                    emit(static_cast<uint32_t>(i), rng, samplers, out[c]);
+            for (size_t j = r.begin(); j != r.end(); ++j) {
+                const Job& job = jobs[j];
+                const PhotonStream& st = set.streams[job.stream];
+                ChunkOut& o = out[j];
+                for (uint64_t i = job.begin; i < job.end; ++i) {
+                    Rng rng(seed, i, st.key);
+                    Ray ray;
+                    if (!sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
+                        continue;
+                    ++o.accepted;
+                    const TracedPath path =
+                        tracer.trace(ray, st.color, rng, samplers,
+                                     static_cast<uint32_t>(i - job.begin), &o.photons);
+                    o.met_media += path.met_media ? 1 : 0;
+                    o.interactions += static_cast<uint64_t>(path.interactions);
+                    o.longest = std::max<uint64_t>(o.longest, path.interactions);
+                    if (path.end == PathEnd::BounceCap) {
+                        ++o.capped;
+                        o.capped_power += average(path.power);
+                    }
                 }
             }
         });
-        // Merge in emission order; a map stops at the photon that fills it (whole path kept).
-        for (const ChunkOut& chunk : out) {
-            result.capped += chunk.capped;
-            result.capped_power += chunk.capped_power;
-            for (const TaggedPhoton& t : chunk.photons) {
+        for (size_t j = 0; j < jobs.size(); ++j) {
+            const Job& job = jobs[j];
+            const size_t s = job.stream;
+            StreamReport& sr = streams[s];
+            sr.photons += out[j].accepted;
+            sr.met_media += out[j].met_media;
+            sr.capped += out[j].capped;
+            sr.capped_power += out[j].capped_power;
+            sr.longest = std::max(sr.longest, out[j].longest);
+            interactions[s] += out[j].interactions;
+            for (const TaggedPhoton& t : out[j].photons) {
                 const int m = static_cast<int>(t.map);
-                StoredPhotons& map = *maps[m];
-                const uint64_t e = base + t.index;
-                if (full_at[m] != 0 && e >= full_at[m]) continue;
-                map.photons.push_back(t.photon);
-                if (map.photons.size() >= map.budget && full_at[m] == 0) full_at[m] = e + 1;
+                Pair& p = pairs[s][m];
+                const uint64_t e = job.begin + t.index;
+                if (p.closed && e >= p.stop_at) continue;
+                maps[m]->photons.push_back(t.photon);
+                photon_stream[m].push_back(static_cast<uint16_t>(s));
+                ++p.stored;
+                p.power += average(t.photon.power());
+                if (!first && open[m] && maps[m]->photons.size() >= maps[m]->budget) {
+                    open[m] = false;
+                    for (size_t u = 0; u < n_streams; ++u) {
+                        pairs[u][m].closed = true;
+                        pairs[u][m].stop_at = u < s    ? attempts[u] + count[u]
+                                              : u == s ? e + 1
+                                                       : attempts[u];
+                    }
+                }
             }
         }
-        result.emitted += n;
+        for (size_t s = 0; s < n_streams; ++s) attempts[s] += count[s];
+        for (int m = 0; m < 3 && first; ++m)
+            if (open[m] && maps[m]->photons.size() >= maps[m]->budget) {
+                open[m] = false;
+                for (size_t u = 0; u < n_streams; ++u) {
+                    pairs[u][m].closed = true;
+                    pairs[u][m].stop_at = attempts[u];
+                }
+            }
+        tracer.set_store(open);
+    };
+    auto total_attempts = [&] {
+        uint64_t n = 0;
+        for (uint64_t a : attempts) n += a;
+        return n;
+    };
+    auto any_open = [&] { return open[0] || open[1] || open[2]; };
+    // Attempts behind a pair's photons: all of the stream's, or those before the map closed.
+    auto behind = [&](size_t s, int m) {
+        return double(pairs[s][m].closed ? pairs[s][m].stop_at : attempts[s]);
+    };
+
+    const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
+    Progress progress("photons", 1000, quiet);
+
+    // Pilot: rounds of kFirstRound, twice that, ... attempts of every stream, kPilot in all, or
+    // less when the cap or the budgets are reached first.
+    for (uint64_t n = kFirstRound; any_open();) {
+        const uint64_t left = cap > total_attempts() ? (cap - total_attempts()) / n_streams : 0;
+        const uint64_t done = attempts[0];
+        const uint64_t round = std::min({n, kPilot - done, left});
+        if (round == 0) break;
+        emit(std::vector<uint64_t>(n_streams, round));
+        n *= 2;
+    }
+
+    // Allocation over the maps still open (variance per unit of work, summed over their relative
+    // variances): a map's variance is about Σ_s W_s P_ms, W_s = Φ_s / N_s the power of one photon
+    // of stream s and P_ms the power stream s deposits in map m; minimising Σ_m Var_m / P_m² for a
+    // total cost Σ_s N_s c_s gives N_s ∝ sqrt(Φ_s Σ_m (P_ms / P_m²) / c_s), c_s = 1 + interactions
+    // per attempt. Every stream keeps at least 5% of its share under plain emission (∝ Φ_s), so
+    // light the pilot saw little of is still sampled. Recomputed each time a map closes.
+    double max_power = 0.0;
+    for (const PhotonStream& st : set.streams) max_power = std::max(max_power, st.region_power);
+    auto allocation = [&] {
+        std::array<double, 3> map_power{0.0, 0.0, 0.0};
+        for (size_t s = 0; s < n_streams; ++s)
+            for (int m = 0; m < 3; ++m)
+                map_power[m] += set.streams[s].region_power * pairs[s][m].power / behind(s, m);
+        std::vector<double> rate(n_streams, 0.0);
+        double max_rate = 0.0;
+        for (size_t s = 0; s < n_streams; ++s) {
+            double g = 0.0;
+            for (int m = 0; m < 3; ++m)
+                if (open[m] && map_power[m] > 0.0)
+                    g += set.streams[s].region_power * pairs[s][m].power / behind(s, m) /
+                         (map_power[m] * map_power[m]);
+            const double cost =
+                1.0 + double(interactions[s]) / double(std::max<uint64_t>(1, attempts[s]));
+            rate[s] = std::sqrt(set.streams[s].region_power * g / cost);
+            max_rate = std::max(max_rate, rate[s]);
+        }
+        for (size_t s = 0; s < n_streams; ++s)
+            rate[s] = std::max(max_rate > 0.0 ? rate[s] / max_rate : 0.0,
+                               0.05 * set.streams[s].region_power / max_power);
+        return rate;
+    };
+
+    // Rounds of the allocation until every map is full or the cap is reached.
+    uint64_t shown = 0;
+    std::array<bool, 3> allocated_for{false, false, false};
+    std::vector<double> rate;
+    while (any_open()) {
+        if (allocated_for != open) {
+            rate = allocation();
+            allocated_for = open;
+        }
+        const uint64_t left = cap > total_attempts() ? cap - total_attempts() : 0;
+        if (left == 0) break;
+        std::vector<uint64_t> count(n_streams, 0);
+        uint64_t planned = 0;
+        for (size_t s = 0; s < n_streams; ++s)
+            planned += count[s] = static_cast<uint64_t>(std::ceil(kBatch * rate[s]));
+        if (planned > left) {  // the last round: what the cap leaves, in the same proportions
+            uint64_t scaled = 0;
+            for (uint64_t& c : count) scaled += c = c * left / planned;
+            if (scaled == 0) count[0] = left;
+        }
+        emit(count);
         double fill = 1.0;
         for (int m = 0; m < 3; ++m)
             if (maps[m] && maps[m]->budget > 0)
-                fill = std::min(fill, double(maps[m]->photons.size()) / maps[m]->budget);
-        const uint64_t now =
-            static_cast<uint64_t>(1000.0 * std::max(fill, double(result.emitted) / double(cap)));
+                fill = std::min(fill, double(maps[m]->photons.size()) / double(maps[m]->budget));
+        const uint64_t now = static_cast<uint64_t>(
+            1000.0 * std::min(1.0, std::max(fill, double(total_attempts()) / double(cap))));
         if (now > shown) progress.add(now - shown), shown = now;
     }
     progress.finish();
+
+    // Weights: a photon of stream s in map m carries Φ_s / N_ms, N_ms the attempts of s when m
+    // stopped taking its photons; the map's photon power is the largest and each photon's
+    // relative power is rescaled to it.
+    result.emitted = total_attempts();
     static const char* kNames[3] = {"global", "caustic", "volume"};
     for (int m = 0; m < 3; ++m) {
         if (!maps[m]) continue;
-        maps[m]->emitted = full_at[m] ? full_at[m] : result.emitted;
-        if (maps[m]->photons.size() < maps[m]->budget)
+        StoredPhotons& map = *maps[m];
+        std::vector<double> weight(n_streams, 0.0);
+        for (size_t s = 0; s < n_streams; ++s) {
+            map.emitted += static_cast<uint64_t>(behind(s, m));
+            weight[s] = set.streams[s].region_power / std::max(1.0, behind(s, m));
+            map.photon_power = std::max(map.photon_power, static_cast<float>(weight[s]));
+            streams[s].stored[m] = pairs[s][m].stored;
+        }
+        for (size_t i = 0; i < map.photons.size(); ++i) {
+            Photon& p = map.photons[i];
+            const double w = weight[photon_stream[m][i]] / map.photon_power;
+            if (w != 1.0) p.power_rgbe = encode_rgbe(p.power() * static_cast<float>(w));
+        }
+        if (map.photons.size() < map.budget)
             result.warnings.push_back(
-                std::string(kNames[m]) + " map: " + std::to_string(maps[m]->photons.size()) +
-                " of " + std::to_string(maps[m]->budget) + " photons stored after " +
+                std::string(kNames[m]) + " map: " + std::to_string(map.photons.size()) + " of " +
+                std::to_string(map.budget) + " photons stored after " +
                 std::to_string(result.emitted) + " emitted (photons.max_emitted reached)");
     }
-    if (result.emitted > 0) result.capped_power /= double(result.emitted);
+    double capped_power = 0.0;
+    for (size_t s = 0; s < n_streams; ++s) {
+        streams[s].attempts = attempts[s];
+        result.capped += streams[s].capped;
+        capped_power += streams[s].capped_power * set.streams[s].region_power /
+                        double(std::max<uint64_t>(1, attempts[s]));
+    }
+    result.capped_power = result.total_power > 0.0f ? capped_power / result.total_power : 0.0;
     if (result.capped_power > 0.001) {
         char text[200];
         std::snprintf(text, sizeof text,
@@ -275,8 +423,7 @@ PhotonMaps build_trees(PhotonPassResult&& pass) {
         const Timer timer;
         PhotonMap m;
         m.emitted = in->emitted;
-        m.photon_power =
-            in->emitted > 0 ? pass.total_power / static_cast<float>(in->emitted) : 0.0f;
+        m.photon_power = in->photon_power;
         in->photons.shrink_to_fit();
         m.tree = KdTree<Photon>(std::move(in->photons));
         m.build_s = timer.seconds();

@@ -1,11 +1,16 @@
 #pragma once
-// The photon pass (DESIGN.md, Photons): photons leave the lights in proportion to their power,
-// all carrying the same power; Russian roulette on albedo decides survival at every interaction;
-// free paths in media by ray marching (default) or delta tracking. Storage: global map at
-// diffuse hits after at least one interaction, caustic map for L S+ D, volume map at scattering
-// events after at least one interaction (the first interaction from a light is left to shadow
-// rays). Shooting goes on until each map holds its budget or photons.max_emitted have left.
-// Deterministic: photon i draws from Rng(seed, i, kPhotonStream) and batches merge in index order.
+// The photon pass (DESIGN.md, Photons): photons leave the lights in streams (photon/streams.h)
+// that aim at what the maps need — the specular surfaces, the media, the ground around them, the
+// rest — and every photon of a stream in a map carries the same power; Russian roulette on
+// albedo decides survival at every interaction; free paths in media by ray marching (default) or
+// delta tracking. Storage: global map at diffuse hits after at least one interaction, caustic map
+// for L S+ D, volume map at scattering events after at least one interaction (the first
+// interaction from a light is left to shadow rays). A pilot of every stream measures what each
+// deposits in each map and what it costs; the streams then emit in the proportions that minimise
+// the maps' summed relative variance per unit of work, each map's budget split into per-stream
+// quotas, until every quota is met or photons.max_emitted attempts have been made.
+// Deterministic: attempt i of a stream draws from Rng(seed, i, the stream's key) and chunks merge
+// in a fixed order, whatever the thread count.
 // PhotonTracer, the per-photon part, is public so that `fogmap validate` traces its beams with
 // exactly this code.
 
@@ -24,14 +29,28 @@ namespace fogmap {
 
 /// One map's photons before its tree is built.
 struct StoredPhotons {
-    std::vector<Photon> photons;
+    std::vector<Photon> photons;  ///< relative powers, scaled so that photon_power is the unit
     uint64_t budget = 0;
-    uint64_t emitted = 0;  ///< photons emitted when the map filled (its power divides by this)
+    uint64_t emitted = 0;       ///< attempts, over all streams, behind the map's photons
+    float photon_power = 0.0f;  ///< W of a photon whose relative power is 1
+};
+
+/// One stream's figures, for the report.
+struct StreamReport {
+    std::string name;
+    uint64_t attempts = 0;   ///< paths sampled (emitted photons count only when accepted)
+    uint64_t photons = 0;    ///< attempts that yielded a photon
+    uint64_t met_media = 0;  ///< photon paths that entered the media's bounds
+    std::array<uint64_t, 3> stored{0, 0, 0};  ///< photons kept per map (global, caustic, volume)
+    uint64_t longest = 0;                     ///< the most interactions of one of its paths
+    uint64_t capped = 0;
+    double capped_power = 0.0;  ///< Σ average relative power of the paths the limit cut
 };
 
 struct PhotonPassResult {
     std::optional<StoredPhotons> global, caustic, volume;  ///< absent when the Plan leaves it out
-    uint64_t emitted = 0;                                  ///< photons emitted in all
+    std::vector<StreamReport> streams;
+    uint64_t emitted = 0;  ///< attempts of all streams
     /// Photon paths cut by photons.max_bounces while still carrying power, and that power as a
     /// share of all emitted power (what the cap removed from the maps' sources).
     uint64_t capped = 0;
@@ -66,9 +85,10 @@ enum class PathEnd {
 
 struct TracedPath {
     PathEnd end = PathEnd::Absorbed;
-    Ray ray;               ///< the last ray: an escaped photon leaves along it
-    Color power{0.0f};     ///< power at the end (relative, as passed in)
-    int interactions = 0;  ///< medium scatterings and surface bounces
+    Ray ray;                 ///< the last ray: an escaped photon leaves along it
+    Color power{0.0f};       ///< power at the end (relative, as passed in)
+    int interactions = 0;    ///< medium scatterings and surface bounces
+    bool met_media = false;  ///< some segment entered a medium's bounds
 };
 
 /// The photon pass's per-photon tracer (trace_photons runs it for every emitted photon; `fogmap
@@ -93,6 +113,7 @@ public:
 private:
     const Scene& scene_;
     RayMarcher marcher_;
+    Box3 media_bounds_;
     FreePathMethod method_;
     int max_bounces_;
     std::array<bool, 3> store_{false, false, false};

@@ -37,7 +37,10 @@ struct PathTracer::Lobe {
     Color albedo;           // diffuse
 };
 
-PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {}
+PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {
+    for (const Light& l : scene.lights)
+        has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
+}
 
 PathTracer::ThreadState PathTracer::make_state() const {
     ThreadState ts;
@@ -50,9 +53,61 @@ Vec3 PathTracer::offset(const Vec3& p, const Vec3& n) const {
     return offset_point(p, n, scene_.offset_floor);
 }
 
+// Single scattering from point and spot lights over one segment's media, ∫ T σ_s p I/r² dt, by one
+// equi-angular sample per light (Kulla & Fajardo 2012): pdf D / ((θ_b − θ_a)(D² + (t − Δ)²)),
+// so I/r² / pdf = I (θ_b − θ_a) / D stays bounded. A scattering vertex found by delta tracking
+// would instead sample points ∝ transmittance, and its shadow ray's 1/r² near the light has
+// infinite variance (fireflies that grow with the sample count); so point and spot lights are
+// left out of the NEE at medium vertices (direct_light) and counted here, once per segment.
+Color PathTracer::point_lights_in_segment(const Ray& ray, float t_max, Rng& rng,
+                                          ThreadState& ts) const {
+    float ta = kInfinity, tb = 0.0f;
+    for (const Medium& m : scene_.media) {
+        float enter, exit;
+        if (m.world_bounds().empty() ||
+            !intersect_box(m.world_bounds(), ray, 0.0f, t_max, &enter, &exit))
+            continue;
+        ta = std::min(ta, enter);
+        tb = std::max(tb, exit);
+    }
+    Color sum(0.0f);
+    if (!(tb > ta)) return sum;
+    for (const Light& light : scene_.lights) {
+        if (light.type != LightType::Point && light.type != LightType::Spot) continue;
+        const float delta = glm::dot(light.position - ray.o, ray.d);
+        const float D = glm::length(light.position - ray.at(delta));
+        const float th_a = std::atan2(ta - delta, D), th_b = std::atan2(tb - delta, D);
+        const float u = rng.uniform();
+        float t, pdf;
+        if (D > 1e-4f * (tb - ta) && th_b > th_a) {
+            t = std::clamp(delta + D * std::tan(th_a + u * (th_b - th_a)), ta, tb);
+            pdf = D / ((th_b - th_a) * (D * D + (t - delta) * (t - delta)));
+        } else {  // the ray passes through the light: uniform
+            t = ta + u * (tb - ta);
+            pdf = 1.0f / (tb - ta);
+        }
+        const Vec3 x = ray.at(t);
+        Color sigma_s(0.0f);
+        for (Medium::Sampler& m : ts.media) sigma_s += m.density(x) * m.medium().params().sigma_s;
+        if (max_component(sigma_s) <= 0.0f) continue;
+        const LightSample ls = sample_light(light, x, Vec2(0.5f));
+        if (ls.pdf <= 0.0f || max_component(ls.Li) <= 0.0f) continue;
+        const Color T_view = ratio_track(ts.media, ray, t, rng);
+        if (max_component(T_view) <= 0.0f) continue;
+        const Color T_light = shadow_transmittance(scene_, ts.media, Ray{x, ls.wi},
+                                                   ls.dist * (1.0f - 1e-4f), rng, &ts.rays);
+        const float phase = PhaseMix(ts.media, x).eval(glm::dot(ray.d, ls.wi));
+        sum += T_view * sigma_s * phase * ls.Li * T_light / pdf;
+    }
+    return sum;
+}
+
 Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const {
     Color sum(0.0f);
     for (const Light& light : scene_.lights) {
+        // Point and spot lights reach medium vertices through point_lights_in_segment.
+        if (lobe.phase && (light.type == LightType::Point || light.type == LightType::Spot))
+            continue;
         // Sample from the offset origin so the shadow ray's length is measured from where it
         // starts (else the light itself can sit inside the margin).
         const Vec3 origin = lobe.phase ? x : offset(x, lobe.dir);
@@ -96,6 +151,8 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
             if (hit) t_max = hit->t;
         }
         if (!ts.media.empty()) {
+            if (has_point_lights_ && depth < max_depth_)
+                L += beta * point_lights_in_segment(ray, t_max, rng, ts);
             const TrackResult tr =
                 delta_track(ts.media, ray, t_max, rng, &beta, Collision::Weighted);
             if (tr.event == TrackEvent::Absorbed) break;

@@ -1,7 +1,7 @@
 #pragma once
 // Reference integrator (DESIGN.md, Media): an unbiased volumetric path tracer. Weighted delta
-// tracking finds scattering events in media; next-event estimation to every light
-// uses ratio-tracked transmittance; area, sun-disc and environment lights are combined with
+// tracking finds scattering events in media; next-event estimation to every light uses residual
+// ratio-tracked transmittance (point and spot lights in media: equi-angular samples per segment); area, sun-disc and environment lights are combined with
 // phase/BSDF sampling by multiple importance sampling (power heuristic); Russian roulette once the
 // throughput falls below 1; max_depth caps the number of scattering/bounce vertices.
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
@@ -33,10 +33,12 @@ public:
 private:
     struct Lobe;
     Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
+    Color point_lights_in_segment(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Vec3 offset(const Vec3& p, const Vec3& n) const;
 
     const Scene& scene_;
     int max_depth_;
+    bool has_point_lights_ = false;
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,

@@ -3,6 +3,8 @@
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "core/timer.h"
+
+#include <nlohmann/json.hpp>
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
 #include "render/metrics.h"
@@ -70,8 +72,20 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
         if (photon) {
             PhotonPassResult pass =
                 trace_photons(*scene, plan, desc.photons, desc.march, settings.seed, quiet_pass);
-            if (i == 1)
+            if (i == 1) {
                 for (const std::string& w : pass.warnings) warn(&report, w);
+                for (const StreamReport& s : pass.streams)
+                    report.streams.push_back(
+                        {{"name", s.name},
+                         {"attempts", s.attempts},
+                         {"photons", s.photons},
+                         {"media_share", s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
+                         {"longest_path", s.longest},
+                         {"stored",
+                          {{"global", s.stored[0]},
+                           {"caustic", s.stored[1]},
+                           {"volume", s.stored[2]}}}});
+            }
             add_phase(&report, "photon pass", pass.time_s);
             report.photons_emitted += pass.emitted;
             report.photons_capped += pass.capped;

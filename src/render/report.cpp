@@ -42,6 +42,11 @@ std::string report_text(const Report& r) {
             << " bytes/photon, tree built in " << fixed(m.build_s, 3) << " s\n";
     }
     if (r.photons_emitted > 0) out << "photons emitted: " << r.photons_emitted << "\n";
+    for (const auto& st : r.streams)
+        out << "stream " << st["name"].get<std::string>() << ": " << st["attempts"] << " attempts, "
+            << st["photons"] << " photons, " << fixed(100.0 * st["media_share"].get<double>(), 1)
+            << "% reach the media; stored global " << st["stored"]["global"] << ", caustic "
+            << st["stored"]["caustic"] << ", volume " << st["stored"]["volume"] << "\n";
     out << "image: " << r.width << " x " << r.height << ", " << r.spp << " spp, " << r.threads
         << " threads\n";
     double total = 0.0;
@@ -114,6 +119,7 @@ nlohmann::json report_json(const Report& r) {
               {"photon_paths_by_max_bounces", r.photons_capped},
               {"photon_power_fraction", r.photons_capped_power}}},
             {"maps", maps},
+            {"streams", r.streams},
             {"mean", r.mean},
             {"iterations", iterations},
             {"warnings", r.warnings},

@@ -42,6 +42,7 @@ struct Report {
     std::string plan_text;             ///< make_plan's five lines
     nlohmann::json plan;               ///< the same as JSON
     std::vector<MapReport> maps;       ///< photon maps built
+    nlohmann::json streams = nlohmann::json::array();  ///< photon streams: name, attempts, ...
     uint64_t photons_emitted = 0;
     uint64_t depth_capped = 0;          ///< camera samples cut by render.max_depth
     uint64_t photons_capped = 0;        ///< photon paths cut by photons.max_bounces

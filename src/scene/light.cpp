@@ -150,13 +150,6 @@ float spot_solid_angle(const Light& l) {
 
 float bounding_radius(const Box3& b) { return 0.5f * glm::length(b.extent()); }
 
-// A point on the disc of radius r perpendicular to unit d, centred on c, pushed back along −d to
-// just outside the bounding sphere.
-Vec3 disc_origin(const Vec3& c, float r, const Vec3& d, Vec2 u) {
-    const float rad = r * std::sqrt(u.x), phi = kTwoPi * u.y;
-    return c + to_world(Vec3(rad * std::cos(phi), rad * std::sin(phi), 0.0f), d) - 1.01f * r * d;
-}
-
 }  // namespace
 
 Color light_power(const Light& l, const Box3& bounds) {
@@ -179,81 +172,6 @@ Color light_power(const Light& l, const Box3& bounds) {
         }
     }
     return Color(0.0f);
-}
-
-bool sample_photon(const Light& l, const Box3& bounds, const PhotonFocus* focus, Rng& rng, Ray* ray,
-                   float* weight) {
-    *weight = 1.0f;
-    const Vec2 u(rng.uniform(), rng.uniform());
-    switch (l.type) {
-        case LightType::Point:
-            *ray = Ray{l.position, sample_uniform_sphere(u)};
-            return true;
-        case LightType::Spot:
-            // Uniform in the cone, accepted with probability falloff ≤ 1: photons keep equal power.
-            for (int attempt = 0; attempt < 64; ++attempt) {
-                const float cos_t = 1.0f - rng.uniform() * (1.0f - l.cos_outer);
-                const float sin_t = std::sqrt(std::max(0.0f, 1.0f - cos_t * cos_t));
-                const float phi = kTwoPi * rng.uniform();
-                if (rng.uniform() >= smoothstep(l.cos_outer, l.cos_inner, cos_t)) continue;
-                const Vec3 d = to_world(Vec3(sin_t * std::cos(phi), sin_t * std::sin(phi), cos_t),
-                                        l.direction);
-                *ray = Ray{l.position, glm::normalize(d)};
-                return true;
-            }
-            return false;
-        case LightType::Quad: {
-            const Vec3 p = l.corner + u.x * l.edge_u + u.y * l.edge_v;
-            const Vec2 v(rng.uniform(), rng.uniform());
-            *ray = Ray{p, sample_cosine_hemisphere(l.normal, v)};
-            return true;
-        }
-        case LightType::Sun:
-        case LightType::Environment: {
-            if (bounds.empty()) return false;
-            Vec3 d;
-            if (l.type == LightType::Environment) {
-                d = sample_uniform_sphere(u);
-            } else if (l.sun_one_minus_cos > 0.0f) {
-                const LightSample s = sample_light(l, Vec3(0.0f), u);
-                d = -s.wi;
-            } else {
-                d = l.direction;
-            }
-            const Vec3 c = bounds.center();
-            const float r = bounding_radius(bounds);
-            const Vec2 v(rng.uniform(), rng.uniform());
-            if (!focus || focus->bounds.empty()) {
-                *ray = Ray{disc_origin(c, r, d, v), d};
-                return true;
-            }
-            // The focus sphere's shadow on the disc: a disc of radius rf around cf.
-            const Vec3 to = focus->bounds.center() - c;
-            const Vec3 cf = c + to - glm::dot(to, d) * d;
-            const float rf = bounding_radius(focus->bounds);
-            const float a = rf * rf / (r * r), f = focus->fraction;
-            if (!(a < 0.25f && a < f && f < 1.0f)) {
-                *ray = Ray{disc_origin(c, r, d, v), d};
-                return true;
-            }
-            if (rng.uniform() < f) {
-                *weight = a / f;
-                *ray = Ray{disc_origin(cf, rf, d, v) - 1.01f * (r - rf) * d, d};
-                return true;
-            }
-            *weight = (1.0f - a) / (1.0f - f);
-            for (int attempt = 0; attempt < 64; ++attempt) {
-                const Vec3 o = disc_origin(c, r, d, Vec2(rng.uniform(), rng.uniform()));
-                const Vec3 q = o - cf;
-                if (glm::dot(q, q) - glm::dot(q, d) * glm::dot(q, d) >= rf * rf) {
-                    *ray = Ray{o, d};
-                    return true;
-                }
-            }
-            return false;
-        }
-    }
-    return false;
 }
 
 }  // namespace fogmap

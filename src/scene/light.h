@@ -57,22 +57,4 @@ Color quad_radiance(const Light& light, const Vec3& d);
 /// `scene_bounds` (projection onto the scene, as Jensen's projection maps): E·πR² and 4π²R²·L.
 Color light_power(const Light& light, const Box3& scene_bounds);
 
-/// Where sun and environment photons are concentrated: the bounding sphere of `bounds` (the
-/// media), hit by a `fraction` of them instead of its share of the scene's cross-section.
-struct PhotonFocus {
-    Box3 bounds;
-    float fraction = 0.5f;  ///< in (0, 1); photons.media_fraction
-};
-
-/// A photon leaving `light`: a ray (unit direction) towards the scene and its power relative to
-/// an unfocused photon (*weight; 1 unless focused). Sun and environment photons start on a disc
-/// of the bounding sphere's radius perpendicular to their direction, outside the sphere; with a
-/// focus whose sphere's shadow on that disc covers a share a < 1/4 of it (less than `fraction`),
-/// a `fraction` of them start in that shadow (weight a / fraction) and the rest elsewhere on the
-/// disc (weight (1 − a) / (1 − fraction)): the same expected power, more photons into the media.
-/// Spot photons follow the falloff by rejection. False if no photon could be drawn (empty
-/// bounds, or a rejection gave up).
-bool sample_photon(const Light& light, const Box3& scene_bounds, const PhotonFocus* focus, Rng& rng,
-                   Ray* ray, float* weight);
-
 }  // namespace fogmap

@@ -107,11 +107,6 @@ struct PhotonSettings {
     /// Interactions per photon path, >= 1. Photons end by Russian roulette on the albedo; this is
     /// a safety limit, and the power it cuts is reported (a warning above 0.1%).
     int max_bounces = 1000000;
-    /// Share of sun and environment photons aimed at the media's bounding sphere (reweighted,
-    /// so unbiased; scene/light.h PhotonFocus); 0 = as many as its cross-section gets. Off by
-    /// default: on smoke.json it trades photon-pass time for noise at about the same error per
-    /// second (README, Choosing gather settings).
-    float media_fraction = 0.0f;
 };
 
 /// Surface global map: disc estimate, shown directly or through final gathering.

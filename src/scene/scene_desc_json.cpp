@@ -151,7 +151,6 @@ void photon_fields(P& p, V& v) {
     v.value("volume", p.volume);
     v.value("max_emitted", p.max_emitted);
     v.value("max_bounces", p.max_bounces);
-    v.value("media_fraction", p.media_fraction);
 }
 
 template <class G, class V>

@@ -363,9 +363,6 @@ void check_photons(const SceneDesc& desc) {
     k.uint_range("caustic", p.caustic, 0, kMaxPhotonBudget);
     k.uint_range("volume", p.volume, 0, kMaxPhotonBudget);
     k.int_range("max_bounces", p.max_bounces, 1, kMaxDepthLimit);
-    if (!(p.media_fraction >= 0.0f && p.media_fraction < 1.0f))
-        k.fail("media_fraction",
-               "media_fraction must be in [0, 1); found " + num(p.media_fraction));
 }
 
 void check_gather(const SceneDesc& desc) {

@@ -1,12 +1,13 @@
 // The photon pass: maps the Plan leaves out are never allocated, results do not depend on the
 // thread count, a scene that stores nothing stops at the emission cap with a warning, and the
-// caustic map's irradiance on a wall lit through a mirror converges to the analytic E sin θ,
-// and photons focused on the media carry the power that crosses any sphere (E π r², 4π² r² L).
+// caustic map's irradiance on a wall lit through a mirror converges to the analytic E sin θ;
+// photon streams partition every light's paths, carrying its power into any sphere.
 
 #include "photon/photon_pass.h"
 
 #include "core/parallel.h"
 #include "photon/estimators.h"
+#include "photon/streams.h"
 #include "scene_builders.h"
 
 #include <gtest/gtest.h>
@@ -187,64 +188,124 @@ TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
     }
 }
 
-// Power carried into a test sphere by n photons of `light`, with and without a focus:
-// Σ weight × [the ray enters the sphere] × Φ / n, with its standard error.
+// Power carried into a test sphere by every stream of `light`: Σ_s Σ_attempts [photon and its
+// first segment enters the sphere] × Φ_s / N_s, with its standard error (streams independent).
 struct Flux {
     double mean, standard_error;
 };
 
-Flux flux_into_sphere(const Light& light, const Box3& scene, const PhotonFocus* focus,
-                      const Vec3& centre, float radius, int n) {
-    const double power = average(light_power(light, scene));
-    double sum = 0.0, sum2 = 0.0;
-    for (int i = 0; i < n; ++i) {
-        Rng rng(11, i);
-        Ray ray;
-        float weight = 0.0f;
-        if (!sample_photon(light, scene, focus, rng, &ray, &weight)) continue;
-        const Vec3 oc = centre - ray.o;
-        const float along = glm::dot(oc, ray.d);
-        const bool hits = along > 0.0f && glm::dot(oc, oc) - along * along < radius * radius;
-        const double v = hits ? weight * power : 0.0;
-        sum += v;
-        sum2 += v * v;
+Flux flux_into_sphere(const StreamSet& set, const Scene& scene, int light, const Vec3& centre,
+                      float radius, int n) {
+    double mean = 0.0, var = 0.0;
+    for (size_t s = 0; s < set.streams.size(); ++s) {
+        if (set.streams[s].light != light) continue;
+        const double w = set.streams[s].region_power;
+        double sum = 0.0, sum2 = 0.0;
+        for (int i = 0; i < n; ++i) {
+            Rng rng(11, i, set.streams[s].key);
+            Ray ray;
+            if (!sample_stream(set, static_cast<int>(s), scene, rng, &ray)) continue;
+            const double v = meets_sphere(ray, centre, radius) ? w : 0.0;
+            sum += v;
+            sum2 += v * v;
+        }
+        const double m = sum / n;
+        mean += m;
+        var += std::max(0.0, sum2 / n - m * m) / n;
     }
-    const double mean = sum / n;
-    return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
+    return {mean, std::sqrt(var)};
 }
 
-TEST(PhotonFocus, FocusedSunAndSkyPhotonsCarryTheRightPowerEverywhere) {
-    const Box3 scene{Vec3(-8.0f, 0.0f, -8.0f), Vec3(8.0f, 4.0f, 8.0f)};
-    PhotonFocus focus;
-    focus.bounds = Box3{Vec3(-1.0f, 0.5f, -1.0f), Vec3(1.0f, 2.5f, 1.0f)};
-    Light sunlight = make_light(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
-    LightDesc sky_desc;
-    sky_desc.type = LightType::Environment;
-    sky_desc.radiance = Color(0.5f);
-    const Light sky = make_light(sky_desc);
-    // Test spheres inside the focus, far outside it, and across its edge.
-    const std::vector<std::pair<Vec3, float>> spheres{{Vec3(0.0f, 1.5f, 0.0f), 0.5f},
-                                                      {Vec3(5.0f, 1.0f, 4.0f), 2.0f},
-                                                      {Vec3(1.5f, 1.5f, 0.5f), 1.0f}};
+// Streams partition each light's paths (by the first target sphere they meet: a glass sphere,
+// the media, the ground around the media, the rest), each sampling its own region; the power they
+// carry together into any sphere must equal the light's, whether the sphere lies inside a target,
+// far outside all, or across their edges: E π r² for a sun, 4π² r² L for a sky, I Ω for a point
+// light (Ω the solid angle of the sphere), and for a spot I times its falloff integrated over Ω
+// (midpoint rule here).
+TEST(PhotonStreams, PartitionCarriesEachLightsPowerIntoAnySphere) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
+    d.lights.push_back(environment(0.5f));
+    d.lights.push_back(point_light(Vec3(3.0f, 2.0f, 1.0f), 4.0f));
+    LightDesc spot = point_light(Vec3(-1.0f, 3.5f, 0.5f), 3.0f);
+    spot.type = LightType::Spot;
+    spot.direction = Vec3(0.2f, -1.0f, -0.1f);
+    spot.cone_angle_deg = 35.0f;
+    spot.cone_delta_deg = 10.0f;
+    d.lights.push_back(spot);
+    d.materials["glass"] = MaterialDesc{MaterialType::Glass, Color(1.0f), 1.5f};
+    d.materials["floor"] = MaterialDesc{MaterialType::Diffuse, Color(0.5f), 1.5f};
+    d.shapes.push_back(
+        quad(Vec3(-8.0f, 0.0f, -8.0f), Vec3(0.0f, 0.0f, 16.0f), Vec3(16.0f, 0.0f, 0.0f), "floor"));
+    ShapeDesc ball;
+    ball.type = ShapeType::Sphere;
+    ball.center = Vec3(2.0f, 0.8f, -2.0f);
+    ball.radius = 0.5f;
+    ball.material = "glass";
+    d.shapes.push_back(ball);
+    d.media.push_back(fog_box());  // [-1, 1]^3
+    const auto scene = load_scene(d);
+    const StreamSet set = make_streams(*scene, true, true);
+    ASSERT_EQ(set.targets.size(), 3u);  // specular, media, near media
+    const std::vector<std::pair<Vec3, float>> spheres{{Vec3(0.0f, 0.2f, 0.0f), 0.5f},
+                                                      {Vec3(5.0f, 1.0f, 4.0f), 1.5f},
+                                                      {Vec3(1.5f, 1.0f, 0.5f), 1.0f},
+                                                      {Vec3(2.0f, 0.8f, -2.0f), 0.7f}};
+    const Light& pl = scene->lights[2];
+    const Light& sl = scene->lights[3];
     for (const auto& [centre, radius] : spheres) {
-        const double sun_expected = 2.0 * kPi * radius * radius;
-        const double sky_expected = 4.0 * kPi * kPi * radius * radius * 0.5;
-        for (const PhotonFocus* f :
-             {static_cast<const PhotonFocus*>(nullptr), static_cast<const PhotonFocus*>(&focus)}) {
-            const Flux a = flux_into_sphere(sunlight, scene, f, centre, radius, 1000000);
-            EXPECT_NEAR(a.mean, sun_expected, 4.0 * a.standard_error)
-                << "sun, sphere at x " << centre.x << (f ? ", focused" : "");
-            const Flux b = flux_into_sphere(sky, scene, f, centre, radius, 1000000);
-            EXPECT_NEAR(b.mean, sky_expected, 4.0 * b.standard_error)
-                << "sky, sphere at x " << centre.x << (f ? ", focused" : "");
+        const double r2 = double(radius) * radius;
+        const double dist = glm::length(centre - pl.position);
+        const double omega = 2.0 * kPi * (1.0 - std::sqrt(1.0 - r2 / (dist * dist)));
+        // The spot's falloff over the sphere's cone: a 200 × 200 midpoint rule in (cos, φ).
+        const Vec3 axis = glm::normalize(centre - sl.position);
+        const double cos_max =
+            std::sqrt(1.0 - r2 / glm::dot(centre - sl.position, centre - sl.position));
+        double spot_sum = 0.0;
+        const double outer = std::cos(35.0 * kPi / 180.0), inner = std::cos(25.0 * kPi / 180.0);
+        for (int a = 0; a < 200; ++a)
+            for (int b = 0; b < 200; ++b) {
+                const double c = 1.0 - (a + 0.5) / 200.0 * (1.0 - cos_max);
+                const double sn = std::sqrt(1.0 - c * c), phi = 2.0 * kPi * (b + 0.5) / 200.0;
+                const Vec3 dir = to_world(
+                    Vec3(float(sn * std::cos(phi)), float(sn * std::sin(phi)), float(c)), axis);
+                const double t = std::clamp(
+                    (glm::dot(glm::normalize(dir), sl.direction) - outer) / (inner - outer), 0.0,
+                    1.0);
+                spot_sum += t * t * (3.0 - 2.0 * t);
+            }
+        const double spot_expected = 3.0 * spot_sum / 40000.0 * 2.0 * kPi * (1.0 - cos_max);
+        const double expected[4] = {2.0 * kPi * r2, 4.0 * kPi * kPi * r2 * 0.5, 4.0 * omega,
+                                    spot_expected};
+        for (int l = 0; l < 4; ++l) {
+            const Flux f = flux_into_sphere(set, *scene, l, centre, radius, 200000);
+            EXPECT_NEAR(f.mean, expected[l], 4.0 * f.standard_error + 1e-9)
+                << "light " << l << ", sphere at " << centre.x << " " << centre.y;
         }
     }
-    // The focus puts more photons into its own sphere: a lower standard error there.
-    const Flux plain =
-        flux_into_sphere(sunlight, scene, nullptr, Vec3(0.0f, 1.5f, 0.0f), 0.5f, 100000);
-    const Flux focused =
-        flux_into_sphere(sunlight, scene, &focus, Vec3(0.0f, 1.5f, 0.0f), 0.5f, 100000);
-    EXPECT_LT(focused.standard_error, 0.5 * plain.standard_error);
+}
+
+// A stream aimed at the media puts more of its photons into them than the light's plain emission
+// would: of the sun's photons into the medium's sphere, the media stream's share is above 90%,
+// its region a fraction of the scene's.
+TEST(PhotonStreams, MediaStreamAimsAtTheMedia) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
+    add_ground(&d, -1.0f, 50.0f, 0.5f);
+    d.media.push_back(fog_box());
+    const auto scene = load_scene(d);
+    const StreamSet set = make_streams(*scene, false, true);
+    ASSERT_EQ(set.streams.size(), 3u);  // media, near media, rest
+    EXPECT_EQ(set.streams[0].target, 0);
+    int hits = 0;
+    for (int i = 0; i < 1000; ++i) {
+        Rng rng(5, i, set.streams[0].key);
+        Ray ray;
+        ASSERT_TRUE(sample_stream(set, 0, *scene, rng, &ray));
+        hits += meets_sphere(ray, Vec3(0.0f), std::sqrt(3.0f)) ? 1 : 0;
+    }
+    EXPECT_EQ(hits, 1000);
+    EXPECT_LT(set.streams[0].region_power, 0.01 * set.streams[2].region_power);
 }
 
 }  // namespace

@@ -72,7 +72,7 @@ json full_scene() {
       "render": {"integrator": "path", "spp": 64, "max_depth": 12,
                  "seed": 18446744073709551615, "threads": 3},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
-                  "max_bounces": 7, "media_fraction": 0.25},
+                  "max_bounces": 7},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
       "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
@@ -238,7 +238,7 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     EXPECT_EQ(photons.field, "/photons/surface");
     EXPECT_EQ(photons.reason,
               "unknown key 'surface'; known keys: caustic, global, max_bounces, max_emitted, "
-              "media_fraction, volume");
+              "volume");
 }
 
 TEST(SceneDescJson, FieldsOfAnotherTypeAreUnknownKeys) {
@@ -582,8 +582,6 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "step_voxels must be finite, > 0 and <= 1000000; found 2e+06"},
         {R"({"march": {"step_world": -0.1}})", "/march/step_world",
          "step_world must be finite and >= 0; found -0.1"},
-        {R"({"photons": {"media_fraction": 1}})", "/photons/media_fraction",
-         "media_fraction must be in [0, 1); found 1"},
         {R"({"volume": {"light_samples": -1}})", "/volume/light_samples",
          "light_samples must be in [0, 4096]; found -1"},
         {R"({"progressive": {"alpha": 1}})", "/progressive/alpha",
