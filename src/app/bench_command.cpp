@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -128,25 +129,24 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 }
 
 /// The number of runs the sweeps make, counted before any is built: the product of the value
-/// counts (saturating) plus the path tracer runs. Throws InputError above kMaxBenchRuns.
+/// counts plus the path tracer runs. Throws InputError above kMaxBenchRuns, saying the count.
 void check_run_count(const std::vector<SweepAxis>& axes, size_t path_runs) {
     uint64_t runs = 1;
+    bool overflow = false;
     std::string product;
     for (const SweepAxis& a : axes) {
         const uint64_t n = a.values.size();
-        runs = runs > kMaxBenchRuns * 1000 ? runs : runs * n;  // stays far below overflow
+        overflow = overflow || (n != 0 && runs > UINT64_MAX / n);
+        runs = overflow ? UINT64_MAX : runs * n;
         product += (product.empty() ? "" : " x ") + std::to_string(n);
     }
-    const uint64_t total = runs + path_runs;
-    if (total <= kMaxBenchRuns) return;
-    const bool saturated = runs > kMaxBenchRuns * 1000;
-    throw InputError("", "--sweep",
-                     "the sweeps make " + product + " = " +
-                         (saturated ? "more than " + std::to_string(kMaxBenchRuns * 1000)
-                                    : std::to_string(runs)) +
-                         " runs, plus " + std::to_string(path_runs) +
-                         " path tracer runs; expected at most " + std::to_string(kMaxBenchRuns) +
-                         " runs per bench (sweep fewer values)");
+    if (!overflow && runs + path_runs <= kMaxBenchRuns) return;
+    throw InputError(
+        "", "--sweep",
+        "the sweeps make " + product + " = " +
+            (overflow ? "more than " + std::to_string(UINT64_MAX) : std::to_string(runs)) +
+            " runs, plus " + std::to_string(path_runs) + " path tracer runs; expected at most " +
+            std::to_string(kMaxBenchRuns) + " runs per bench (sweep fewer values)");
 }
 
 void check_size(int width, int height, const std::string& file, const SceneDesc& desc,
