@@ -87,7 +87,8 @@ ChildResult run_child(const std::string& exe, const std::string& path, double ti
     const pid_t pid = fork();
     if (pid == 0) {
         if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != parent) _exit(127);
-        const int null_in = open("/dev/null", O_RDONLY), null_err = open("/dev/null", O_WRONLY);
+        const int null_in = open("/dev/null", O_RDONLY | O_CLOEXEC);
+        const int null_err = open("/dev/null", O_WRONLY | O_CLOEXEC);
         if (null_in < 0 || null_err < 0 || dup2(null_in, STDIN_FILENO) < 0 ||
             dup2(fds[1], STDOUT_FILENO) < 0 || dup2(null_err, STDERR_FILENO) < 0)
             _exit(127);

@@ -1,5 +1,6 @@
 #include "media/volume_gen.h"
 
+#include "core/error.h"
 #include "core/output_files.h"
 #include "core/rng.h"
 #include "media/vdb_probe.h"
@@ -44,6 +45,9 @@ void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& pa
         file.write(grids);
         file.close();
         check_vdb_file(to.temp, "");
+    } catch (const InputError& e) {
+        throw std::runtime_error("cannot write volume '" + path +
+                                 "': the file written is incomplete (" + e.reason + ")");
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot write volume '" + path + "': " + e.what());
     }
