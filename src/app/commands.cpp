@@ -84,14 +84,12 @@ void check_run_memory(const SceneDesc& desc, bool with_reference) {
     const uint64_t budget = memory_budget_bytes();
     if (total <= double(budget)) return;
     const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
+    const std::string images = std::to_string(desc.camera.width) + " x " +
+                               std::to_string(desc.camera.height) + " pixels x " +
+                               std::to_string(layers) + " layers x 2 films x 12 bytes, and more";
     throw InputError(desc.path, maps > films + others ? "/photons" : "/camera/width",
                      "the run needs about " + mb(total) + ": images " + mb(films + others) + " (" +
-                         std::to_string(desc.camera.width) + " x " +
-                         std::to_string(desc.camera.height) + " pixels x " +
-                         std::to_string(layers) +
-                         " layers x 2 films x 12 bytes, and more), photon "
-                         "maps " +
-                         mb(maps) + "; only " + mb(double(budget)) +
+                         images + "), photon maps " + mb(maps) + "; only " + mb(double(budget)) +
                          " of memory are available; expected a smaller image or fewer photons");
 }
 

@@ -132,10 +132,12 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 1;
     } catch (const std::bad_alloc&) {
+        // An allocation nobody estimated: name the scene being rendered, if any.
+        const std::string file = *r ? render.scene + ": " : std::string();
         std::fprintf(stderr,
-                     "fogmap: error: out of memory (the process held about %s when an allocation "
-                     "failed)\n",
-                     mb_text(peak_bytes()).c_str());
+                     "fogmap: error: %sout of memory (the process held about %s when an "
+                     "allocation failed)\n",
+                     file.c_str(), mb_text(peak_bytes()).c_str());
         return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());
