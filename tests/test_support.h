@@ -1,7 +1,7 @@
 #pragma once
 // What several test programs need: a temp folder per test, whole-file reads and writes, the
-// fogmap binary run through the shell with its output captured, and the InputError a call must
-// throw.
+// fogmap binary run through the shell with its output captured, the InputError a call must
+// throw, and the rule for tests that need ../shared/volumes (skip, but fail when CI=true).
 
 #include "core/error.h"
 
@@ -78,6 +78,18 @@ inline RunResult run_fogmap(const std::string& args, const fs::path& dir,
     r.out = slurp(out);
     r.err = slurp(err);
     return r;
+}
+
+/// For a test whose shared volume (../shared/volumes) is missing: records a skip, or, when the
+/// environment variable CI is "true", a failure (a CI machine must have the volumes, and a
+/// silent skip there would hide the test). The caller returns right after:
+/// `if (!fs::exists(path)) return test::missing_shared_volume(path);`
+inline void missing_shared_volume(const std::string& what) {
+    const char* ci = std::getenv("CI");
+    if (ci != nullptr && std::string(ci) == "true")
+        ADD_FAILURE() << what << " not found: CI=true requires ../shared/volumes";
+    else
+        GTEST_SKIP() << what << " not found (shared volumes absent)";
 }
 
 /// Runs f, expects an InputError, returns it (a failed expectation otherwise).

@@ -6,23 +6,23 @@
 
 #include "app/commands.h"
 
+#include "bench/bench.h"
+#include "bench/svg_plot.h"
 #include "core/error.h"
 #include "core/image.h"
+#include "core/output_files.h"
+#include "core/parallel.h"
 #include "core/timer.h"
-#include "bench/bench.h"
 #include "render/pipeline.h"
-#include "bench/svg_plot.h"
 #include "scene/scene_desc_json.h"
 
-#include <unistd.h>
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -44,6 +44,9 @@ struct BenchArgs {
     std::vector<std::string> overrides;
     bool quiet = false;
 };
+
+/// Most runs one bench may make (sweep cross product plus path tracer runs): each is a render.
+constexpr uint64_t kMaxBenchRuns = 1000;
 
 /// The reference seed differs from the runs' seed: the path tracer draws sample s of a pixel
 /// from Rng(seed, pixel, s), so a reference with the same seed would contain the path rows'
@@ -114,57 +117,36 @@ uint64_t fnv1a(const std::string& s) {
     return h;
 }
 
-std::string temp_path(const std::string& path) {
-    return path + ".tmp-" + std::to_string(::getpid());
-}
-
-/// Creates the folder of `path` and checks a file can be written there, before any work.
-void check_writable(const std::string& path, const char* option) {
-    const fs::path parent = fs::path(path).parent_path();
-    std::error_code ec;
-    if (!parent.empty()) fs::create_directories(parent, ec);
-    if (ec)
-        throw InputError(path, option,
-                         "cannot create folder '" + parent.string() + "': " + ec.message());
-    if (fs::is_directory(path, ec))
-        throw InputError(path, option, "is a folder; expected a file path");
-    const std::string probe = temp_path(path);
-    errno = 0;
-    std::ofstream out(probe, std::ios::binary);
-    if (!out)
-        throw InputError(
-            path, option,
-            std::string("cannot write here: ") + std::strerror(errno ? errno : EACCES));
-    out.close();
-    fs::remove(probe, ec);
-}
-
 /// Writes every (path, text) pair to its temp file first and renames only when all succeeded,
-/// so the CSV and the plot appear together or not at all.
+/// so the CSV and the plot appear together or not at all (core/output_files.h).
 void write_files_atomically(const std::vector<std::pair<std::string, std::string>>& files) {
-    std::vector<std::string> temps;
-    const auto cleanup = [&] {
-        std::error_code ec;
-        for (const std::string& t : temps) fs::remove(t, ec);
-    };
+    OutputFiles out;
     for (const auto& [path, text] : files) {
-        temps.push_back(temp_path(path));
-        std::ofstream out(temps.back(), std::ios::binary);
-        out << text;
-        out.close();
-        if (!out) {
-            cleanup();
-            throw InputError(path, "", "cannot write file: " + std::string(std::strerror(errno)));
-        }
+        create_output_folder(path);
+        write_staged_text(out.stage(path), text);
     }
-    for (size_t i = 0; i < files.size(); ++i) {
-        std::error_code ec;
-        fs::rename(temps[i], files[i].first, ec);
-        if (ec) {
-            cleanup();
-            throw InputError(files[i].first, "", "cannot rename temp file: " + ec.message());
-        }
+    out.commit();
+}
+
+/// The number of runs the sweeps make, counted before any is built: the product of the value
+/// counts plus the path tracer runs. Throws InputError above kMaxBenchRuns, saying the count.
+void check_run_count(const std::vector<SweepAxis>& axes, size_t path_runs) {
+    uint64_t runs = 1;
+    bool overflow = false;
+    std::string product;
+    for (const SweepAxis& a : axes) {
+        const uint64_t n = a.values.size();
+        overflow = overflow || (n != 0 && runs > UINT64_MAX / n);
+        runs = overflow ? UINT64_MAX : runs * n;
+        product += (product.empty() ? "" : " x ") + std::to_string(n);
     }
+    if (!overflow && runs + path_runs <= kMaxBenchRuns) return;
+    throw InputError(
+        "", "--sweep",
+        "the sweeps make " + product + " = " +
+            (overflow ? "more than " + std::to_string(UINT64_MAX) : std::to_string(runs)) +
+            " runs, plus " + std::to_string(path_runs) + " path tracer runs; expected at most " +
+            std::to_string(kMaxBenchRuns) + " runs per bench (sweep fewer values)");
 }
 
 void check_size(int width, int height, const std::string& file, const SceneDesc& desc,
@@ -236,8 +218,16 @@ int run_bench(const BenchArgs& args) {
         keys.push_back(axes.back().key);
     }
     const std::vector<int> path_spp = parse_path_spp(args.path_spp);
+    check_run_count(axes, path_spp.size());
+    const std::vector<std::pair<std::string, std::string>> inputs = {
+        {args.scene, "scene file"}, {args.reference, "reference image"}};
+    check_not_an_input(args.csv, "--csv", inputs);
+    check_not_an_input(args.plot, "--plot", inputs);
+    check_output_path(args.csv, "--csv");
+    check_output_path(args.plot, "--plot");
 
-    const SceneDesc base = load_scene_desc(args.scene, args.overrides);
+    SceneDesc base = load_scene_desc(args.scene, args.overrides);
+    cap_threads(&base);  // the warning is printed; the runs below are capped the same way
     std::vector<SceneDesc> runs;
     std::vector<std::vector<std::string>> run_values;
     for (const std::vector<std::string>& assignment : sweep_runs(axes)) {
@@ -245,6 +235,7 @@ int run_bench(const BenchArgs& args) {
         overrides.insert(overrides.end(), assignment.begin(), assignment.end());
         try {
             runs.push_back(load_scene_desc(args.scene, overrides));  // the normal checks
+            runs.back().render.threads = std::min(runs.back().render.threads, thread_count(0));
         } catch (const InputError& e) {
             // Name the --sweep a bad value came from rather than the --set it was applied as.
             for (size_t a = 0; a < assignment.size(); ++a) {
@@ -274,6 +265,7 @@ int run_bench(const BenchArgs& args) {
     std::optional<SceneDesc> reference_desc;
     if (!args.reference.empty()) {
         reference = read_exr(args.reference);
+        check_finite(reference, args.reference);
     } else {
         // Cache name: FNV-1a of the reference's full scene JSON (to_json: every setting, with
         // integrator path, spp N, the reference seed, threads 0) plus the absolute folder that
@@ -297,17 +289,21 @@ int run_bench(const BenchArgs& args) {
     }
     const int ref_width = reference_desc ? reference_desc->camera.width : reference.width;
     const int ref_height = reference_desc ? reference_desc->camera.height : reference.height;
-    for (size_t i = 0; i < runs.size(); ++i)
+    for (size_t i = 0; i < runs.size(); ++i) {
         check_size(ref_width, ref_height, reference_file, runs[i],
                    "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
-    check_writable(args.csv, "--csv");
-    check_writable(args.plot, "--plot");
+        check_run_memory(runs[i], true);
+    }
+    std::error_code exists_ec;
+    if (reference_desc && !fs::exists(reference_file, exists_ec))
+        check_output_path(reference_file, "--reference-spp");
 
     // ---- Reference. ----
     if (reference_desc) {
         std::error_code ec;
         if (fs::exists(reference_file, ec)) {
             reference = read_exr(reference_file);
+            check_finite(reference, reference_file);
             check_size(reference.width, reference.height, reference_file, *reference_desc,
                        "the scene");
             if (!args.quiet)
@@ -318,6 +314,7 @@ int run_bench(const BenchArgs& args) {
                              args.reference_spp, reference_file.c_str());
             const Timer timer;
             reference = run_pipeline(*reference_desc, args.quiet).film.beauty;
+            create_output_folder(reference_file);
             write_exr(reference_file, reference);
             if (!args.quiet)
                 std::fprintf(stderr, "reference: done in %s\n", seconds(timer.seconds()).c_str());

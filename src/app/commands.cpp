@@ -2,17 +2,22 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/memory_budget.h"
+#include "core/output_files.h"
+#include "core/parallel.h"
 #include "core/timer.h"
+#include "core/world_range.h"
 #include "media/density_grid.h"
 #include "media/volume_gen.h"
+#include "render/film.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
 #include "render/report.h"
-
 #include "scene/scene_desc_json.h"
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -25,15 +30,6 @@ namespace fs = std::filesystem;
 
 bool has_extension(const std::string& path, const char* ext) {
     return fs::path(path).extension() == ext;
-}
-
-void make_parent_dir(const std::string& path) {
-    const fs::path parent = fs::path(path).parent_path();
-    std::error_code ec;
-    if (!parent.empty()) fs::create_directories(parent, ec);
-    if (ec)
-        throw InputError("", "-o",
-                         "cannot create folder '" + parent.string() + "': " + ec.message());
 }
 
 nlohmann::json grid_info_json(const GridInfo& g) {
@@ -58,6 +54,53 @@ nlohmann::json grid_info_json(const GridInfo& g) {
 
 }  // namespace
 
+std::string cap_threads(SceneDesc* desc) {
+    const int cores = thread_count(0);
+    if (desc->render.threads <= cores) return "";
+    const std::string text = "render.threads = " + std::to_string(desc->render.threads) +
+                             " is more than the " + std::to_string(cores) +
+                             " cores this process may use; using " + std::to_string(cores);
+    std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+    desc->render.threads = cores;
+    return text;
+}
+
+void check_run_memory(const SceneDesc& desc, bool with_reference) {
+    const double pixels = double(desc.camera.width) * desc.camera.height;
+    const bool photon = desc.render.integrator == Integrator::Photon;
+    const int layers = photon ? 1 + kLayerCount : 1;
+    // Films: the run's and the iteration's it adds (pipeline.cpp); the reference and, for
+    // progressive runs, the running mean compared with it; the PNG's 8-bit RGB and its encoding.
+    const double films = pixels * sizeof(Color) * layers * 2;
+    const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) + pixels * 6;
+    // 20 bytes per photon with its kd-tree (README, Kd-trees); the beam estimate keeps 40 more
+    // per volume photon.
+    const PhotonSettings& p = desc.photons;
+    const bool beam = desc.volume.estimator == VolumeEstimator::Beam;
+    const double maps = photon ? 20.0 * (double(p.global) + p.caustic + p.volume) +
+                                     (beam ? 40.0 * double(p.volume) : 0.0)
+                               : 0.0;
+    const double total = films + others + maps;
+    const uint64_t budget = memory_budget_bytes();
+    if (total <= double(budget)) return;
+    const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
+    const std::string images = std::to_string(desc.camera.width) + " x " +
+                               std::to_string(desc.camera.height) + " pixels x " +
+                               std::to_string(layers) + " layers x 2 films x 12 bytes, and more";
+    throw InputError(desc.path, maps > films + others ? "/photons" : "/camera/width",
+                     "the run needs about " + mb(total) + ": images " + mb(films + others) + " (" +
+                         images + "), photon maps " + mb(maps) + "; only " + mb(double(budget)) +
+                         " of memory are available; expected a smaller image or fewer photons");
+}
+
+void check_not_an_input(const std::string& output, const std::string& option,
+                        const std::vector<std::pair<std::string, std::string>>& inputs) {
+    for (const auto& [input, what] : inputs)
+        if (!input.empty() && same_file(output, input))
+            throw InputError(output, option,
+                             "is the " + what + " of this run; expected a different output path");
+}
+
 int run_render(const RenderArgs& args) {
     std::string exr = args.output;
     if (exr.empty()) exr = "out/" + fs::path(args.scene).stem().string() + ".exr";
@@ -67,11 +110,25 @@ int run_render(const RenderArgs& args) {
         args.png.empty() ? fs::path(exr).replace_extension(".png").string() : args.png;
     if (!has_extension(png, ".png"))
         throw InputError("", "--png", "'" + png + "' does not end in .png; expected a .png path");
+    if (!std::isfinite(args.exposure))
+        throw InputError("", "--exposure",
+                         "found " + g_text(args.exposure) + "; expected a finite number of stops");
+
+    // Outputs first: never an input of the run, and writable, before any work.
+    const std::vector<std::pair<std::string, std::string>> inputs = {
+        {args.scene, "scene file"}, {args.reference, "reference image"}};
+    check_not_an_input(exr, "-o", inputs);
+    check_not_an_input(png, "--png", inputs);
+    check_output_path(exr, "-o");
+    check_output_path(png, "--png");
 
     // Read the reference first: a bad reference fails before any work.
     Image reference;
-    if (!args.reference.empty()) reference = read_exr(args.reference);
-    const SceneDesc desc = load_scene_desc(args.scene, args.overrides);
+    if (!args.reference.empty()) {
+        reference = read_exr(args.reference);
+        check_finite(reference, args.reference);
+    }
+    SceneDesc desc = load_scene_desc(args.scene, args.overrides);
     if (!args.reference.empty() &&
         (reference.width != desc.camera.width || reference.height != desc.camera.height))
         throw InputError(args.reference, "",
@@ -83,9 +140,12 @@ int run_render(const RenderArgs& args) {
         throw InputError("", "--progressive",
                          "needs --time-budget SECONDS or --iterations N (or progressive.iterations "
                          "or progressive.time_budget in the scene)");
+    const std::string threads_warning = cap_threads(&desc);
+    check_run_memory(desc, !args.reference.empty());
     PipelineResult run =
         run_pipeline(desc, args.quiet, args.reference.empty() ? nullptr : &reference);
     Report& report = run.report;
+    if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
     const Image& image = run.film.beauty;
 
     if (!args.reference.empty()) {
@@ -96,11 +156,14 @@ int run_render(const RenderArgs& args) {
         report.bias = e.bias;
     }
 
+    // Both files are complete before either replaces an older one (core/output_files.h).
     const Timer timer;
-    make_parent_dir(exr);
-    make_parent_dir(png);
-    write_exr(exr, image, run.film.named_layers());
-    write_png(png, image, args.exposure);
+    create_output_folder(exr);
+    create_output_folder(png);
+    OutputFiles outputs;
+    write_exr(outputs.stage(exr), image, run.film.named_layers());
+    write_png(outputs.stage(png), image, args.exposure);
+    outputs.commit();
     report.phases_s.emplace_back("write", timer.seconds());
 
     report.outputs = {exr, png};
@@ -152,12 +215,23 @@ int run_volume(const VolumeArgs& args) {
     if (args.resolution < 2 || args.resolution > 1024)
         throw InputError("", "--resolution",
                          "expected 2 .. 1024, found " + std::to_string(args.resolution));
-    if (!(args.voxel_size > 0.0f) || !std::isfinite(args.voxel_size))
-        throw InputError("", "--voxel-size", "expected a positive number");
+    // The range every VDB grid must be in to be rendered (density_grid.cpp), and its extent the
+    // world range (core/world_range.h): fogmap writes no volume it would refuse to read.
+    if (!(args.voxel_size >= kMinScale && args.voxel_size <= kMaxScale))
+        throw InputError("", "--voxel-size",
+                         "found " + g_text(args.voxel_size) + "; expected " + g_text(kMinScale) +
+                             " .. " + g_text(kMaxScale) + " world units");
+    if (double(args.voxel_size) * args.resolution > kMaxWorldCoordinate)
+        throw InputError("", "--voxel-size",
+                         "--voxel-size " + g_text(args.voxel_size) + " x --resolution " +
+                             std::to_string(args.resolution) + " = " +
+                             g_text(double(args.voxel_size) * args.resolution) +
+                             " world units; expected at most " + g_text(kMaxWorldCoordinate));
     s.resolution = args.resolution;
     s.voxel_size = args.voxel_size;
     s.seed = args.seed;
-    make_parent_dir(args.output);
+    check_output_path(args.output, "-o");
+    create_output_folder(args.output);
     generate_volume(s, args.output);
     std::cout << "wrote: " << args.output << "\n";
     return 0;

@@ -14,12 +14,14 @@ class App;
 
 namespace fogmap {
 
+struct SceneDesc;
+
 struct RenderArgs {
-    std::string scene;                   ///< scene file
-    std::string output;                  ///< .exr path; "" = out/<scene stem>.exr
-    std::string png;                     ///< .png path; "" = beside the EXR
-    std::string reference;               ///< .exr to compare with; "" = none
-    bool progressive = false;            ///< --progressive: the scene's progressive.* must enable it
+    std::string scene;         ///< scene file
+    std::string output;        ///< .exr path; "" = out/<scene stem>.exr
+    std::string png;           ///< .png path; "" = beside the EXR
+    std::string reference;     ///< .exr to compare with; "" = none
+    bool progressive = false;  ///< --progressive: the scene's progressive.* must enable it
     std::vector<std::string> overrides;  ///< "key.path=value"
     float exposure = 0.0f;               ///< PNG preview exposure, stops
     bool quiet = false;
@@ -38,6 +40,18 @@ struct VolumeArgs {
 };
 
 int run_volume(const VolumeArgs& args);
+
+/// Checks render and bench make before any work (app/commands.cpp).
+/// Caps render.threads at the cores this process may use: returns the warning it printed on
+/// stderr ("" when the setting was within them), for the report.
+std::string cap_threads(SceneDesc* desc);
+/// Estimates the memory of one run up front (images: every film layer twice, the reference and
+/// the PNG; photon maps at the bytes per photon the README measures) and throws InputError naming
+/// the estimate in MB when it exceeds core/memory_budget.h's budget.
+void check_run_memory(const SceneDesc& desc, bool with_reference);
+/// Throws InputError{output, option, ...} when the output path names one of the run's inputs.
+void check_not_an_input(const std::string& output, const std::string& option,
+                        const std::vector<std::pair<std::string, std::string>>& inputs);
 
 /// A subcommand registered by its own file: when `app` was chosen on the command line, main
 /// calls `run` and exits with its result (InputError → 2 as everywhere).

@@ -1,19 +1,49 @@
 // fogmap command line: render, info, volume, validate, bench. Parses arguments with CLI11 and maps
-// failures to exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else.
+// failures to exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else
+// (out of memory included). Every failure prints one line "fogmap: error: ...".
 
 #include "app/commands.h"
 #include "core/error.h"
+#include "core/memory_budget.h"
+#include "core/output_files.h"
 #include "media/vdb_probe.h"
 
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <exception>
+#include <fstream>
+#include <new>
+#include <string>
+
+namespace {
+
+/// One line of CLI11's message (it may hold several), for "fogmap: error: <command line>: ...".
+std::string one_line(std::string text) {
+    for (char& c : text)
+        if (c == '\n' || c == '\r') c = ' ';
+    while (!text.empty() && text.back() == ' ') text.pop_back();
+    return text;
+}
+
+/// Peak memory of the process so far (VmPeak in /proc/self/status), bytes; 0 if unknown.
+uint64_t peak_bytes() {
+    std::ifstream status("/proc/self/status");
+    std::string key;
+    while (status >> key) {
+        uint64_t kb = 0;
+        if (key == "VmPeak:" && status >> kb) return kb << 10;
+    }
+    return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     using namespace fogmap;
     CLI::App app{"fogmap: volumetric photon mapping for OpenVDB smoke, fog and clouds"};
     app.require_subcommand(1);
+    install_output_signal_handlers();    // temp outputs are removed on SIGINT/SIGTERM/SIGHUP
     enable_vdb_probe("/proc/self/exe");  // OpenVDB reads each file in a child first: vdb_probe.h
 
     RenderArgs render;
@@ -66,8 +96,10 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        const int code = app.exit(e);
-        return code == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help
+        std::fprintf(stderr, "fogmap: error: <command line>: %s (see fogmap --help)\n",
+                     one_line(e.what()).c_str());
+        return 2;
     }
     try {
         if (*r) {
@@ -96,6 +128,17 @@ int main(int argc, char** argv) {
     } catch (const InputError& e) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 2;
+    } catch (const OutOfMemory& e) {
+        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
+        return 1;
+    } catch (const std::bad_alloc&) {
+        // An allocation nobody estimated: name the scene being rendered, if any.
+        const std::string file = *r ? render.scene + ": " : std::string();
+        std::fprintf(stderr,
+                     "fogmap: error: %sout of memory (the process held about %s when an "
+                     "allocation failed)\n",
+                     file.c_str(), mb_text(peak_bytes()).c_str());
+        return 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 1;

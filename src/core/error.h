@@ -1,8 +1,11 @@
 #pragma once
 // Error vocabulary. InputError is bad input (file, JSON-pointer field, reason): thrown by scene/,
 // app/ and file readers only, caught in main, printed as "fogmap: error: FILE: FIELD: REASON",
-// exit code 2. FOGMAP_ASSERT is for bugs: always on, prints file:line and exits 1.
+// exit code 2. OutOfMemory is an allocation that failed for a known need: printed as
+// "fogmap: error: FILE: out of memory (needed about N MB)", exit code 1. FOGMAP_ASSERT is for
+// bugs: always on, prints file:line and exits 1.
 
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
@@ -25,6 +28,23 @@ struct InputError : std::runtime_error {
         std::string s = file.empty() ? std::string("<command line>") : file;
         if (!field.empty()) s += ": " + field;
         return s + ": " + reason;
+    }
+};
+
+/// An allocation failed (std::bad_alloc) while doing something whose memory was estimated: the
+/// file being processed ("" for none) and the estimate, for the one-line message.
+struct OutOfMemory : std::runtime_error {
+    std::string file;           ///< the file whose processing ran out of memory, or ""
+    uint64_t needed_bytes = 0;  ///< estimate of what the work needed
+    OutOfMemory(std::string file_, uint64_t needed_bytes_)
+        : std::runtime_error(format(file_, needed_bytes_)),
+          file(std::move(file_)),
+          needed_bytes(needed_bytes_) {}
+
+    static std::string format(const std::string& file, uint64_t needed_bytes) {
+        const std::string mb = std::to_string((needed_bytes + (1u << 20) - 1) >> 20);
+        return (file.empty() ? std::string() : file + ": ") + "out of memory (needed about " + mb +
+               " MB)";
     }
 };
 

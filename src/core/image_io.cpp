@@ -1,6 +1,7 @@
 #include "core/image.h"
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 #include <ImathBox.h>
 #include <ImfChannelList.h>
@@ -9,32 +10,40 @@
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <png.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <exception>
-#include <filesystem>
 #include <stdexcept>
 
 namespace fogmap {
 
 namespace {
 
-/// "<path>.tmp-<pid>": unique per process, beside the target so that rename() stays atomic.
-std::string temp_path_for(const std::string& path) {
-    return path + ".tmp-" + std::to_string(static_cast<long>(::getpid()));
-}
-
-/// Renames temp over path, or removes temp and throws std::runtime_error naming path.
-void commit_temp(const std::string& temp, const std::string& path) {
-    if (std::rename(temp.c_str(), path.c_str()) != 0) {
-        std::remove(temp.c_str());
-        throw std::runtime_error(path + ": cannot replace the file with the finished temporary " +
-                                 temp);
+/// OpenEXR output through a CheckedFile: every write and seek is checked, and an error keeps
+/// failing (OutputFile writes its line-offset table from its destructor, which swallows
+/// exceptions; CheckedFile::close reports it then).
+class CheckedExrStream : public Imf::OStream {
+public:
+    explicit CheckedExrStream(CheckedFile* file)
+        : Imf::OStream(file->name().c_str()), file_(file) {}
+    void write(const char c[], int n) override {
+        if (!file_->write(c, static_cast<size_t>(n))) fail();
+        pos_ += static_cast<uint64_t>(n);
     }
-}
+    uint64_t tellp() override { return pos_; }
+    void seekp(uint64_t pos) override {
+        if (!file_->seek(pos)) fail();
+        pos_ = pos;
+    }
+
+private:
+    [[noreturn]] void fail() const { throw std::runtime_error(std::strerror(file_->error())); }
+    CheckedFile* file_;
+    uint64_t pos_ = 0;
+};
 
 /// Adds channels <prefix>R, <prefix>G, <prefix>B of image to header and frame buffer.
 void add_rgb(const std::string& prefix, const Image& image, Imf::Header* header,
@@ -79,8 +88,8 @@ double Image::mean() const {
     return sum / (3.0 * static_cast<double>(pixels.size()));
 }
 
-void write_exr(const std::string& path, const Image& beauty,
-               const std::vector<NamedImage>& layers) {
+void write_exr(const StagedFile& to, const Image& beauty, const std::vector<NamedImage>& layers) {
+    const std::string& path = to.path;
     if (beauty.width <= 0 || beauty.height <= 0) {
         throw std::runtime_error(path + ": cannot write an empty image (" +
                                  std::to_string(beauty.width) + "x" +
@@ -93,7 +102,7 @@ void write_exr(const std::string& path, const Image& beauty,
                                      "' is missing or differs in size from the beauty image");
         }
     }
-    const std::string temp = temp_path_for(path);
+    CheckedFile file(to.temp, path);
     try {
         Imf::Header header(beauty.width, beauty.height);
         header.compression() = Imf::ZIP_COMPRESSION;
@@ -102,22 +111,28 @@ void write_exr(const std::string& path, const Image& beauty,
         for (const NamedImage& layer : layers) {
             add_rgb(layer.name + ".", *layer.image, &header, &frame_buffer);
         }
-        // The file is closed (flushed) when `file` goes out of scope, before the rename.
-        Imf::OutputFile file(temp.c_str(), header);
-        file.setFrameBuffer(frame_buffer);
-        file.writePixels(beauty.height);
+        CheckedExrStream stream(&file);
+        // The line-offset table is written when `exr` goes out of scope; a failure there is kept
+        // by `file` and reported by close() below.
+        Imf::OutputFile exr(stream, header);
+        exr.setFrameBuffer(frame_buffer);
+        exr.writePixels(beauty.height);
     } catch (const std::exception& e) {
-        std::remove(temp.c_str());
-        throw std::runtime_error(path + ": cannot write OpenEXR file: " + e.what());
+        throw std::runtime_error(path + ": cannot write OpenEXR file: " +
+                                 (file.error() ? std::strerror(file.error()) : e.what()));
     }
-    commit_temp(temp, path);
+    file.close("OpenEXR file");
+}
+
+void write_exr(const std::string& path, const Image& beauty,
+               const std::vector<NamedImage>& layers) {
+    OutputFiles out;
+    write_exr(out.stage(path), beauty, layers);
+    out.commit();
 }
 
 Image read_exr(const std::string& path, const std::string& layer) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) {
-        throw InputError{path, "", "file not found (expected an OpenEXR image)"};
-    }
+    check_input_file(path, "", "OpenEXR image");
     try {
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();
@@ -152,7 +167,26 @@ Image read_exr(const std::string& path, const std::string& layer) {
     }
 }
 
-void write_png(const std::string& path, const Image& image, float exposure) {
+void check_finite(const Image& image, const std::string& path) {
+    for (size_t i = 0; i < image.pixels.size(); ++i) {
+        const Color& p = image.pixels[i];
+        if (is_finite(p)) continue;
+        const auto text = [](float v) {
+            char buf[32];
+            std::snprintf(buf, sizeof buf, "%g", static_cast<double>(v));
+            return std::string(buf);
+        };
+        throw InputError(path, "",
+                         "pixel (" + std::to_string(i % static_cast<size_t>(image.width)) + ", " +
+                             std::to_string(i / static_cast<size_t>(image.width)) + ") is (" +
+                             text(p.x) + ", " + text(p.y) + ", " + text(p.z) +
+                             "); a reference image must be finite everywhere (one NaN makes "
+                             "every error metric NaN)");
+    }
+}
+
+void write_png(const StagedFile& to, const Image& image, float exposure) {
+    const std::string& path = to.path;
     if (image.width <= 0 || image.height <= 0) {
         throw std::runtime_error(path + ": cannot write an empty image (" +
                                  std::to_string(image.width) + "x" + std::to_string(image.height) +
@@ -167,21 +201,32 @@ void write_png(const std::string& path, const Image& image, float exposure) {
         rgb[3 * i + 2] = srgb_code(p.z * scale);
     }
     // libpng's simplified API (1.6) reports errors through png_image::message instead of
-    // longjmp, and tags 8-bit output with an sRGB chunk.
+    // longjmp, and tags 8-bit output with an sRGB chunk. Encoded in memory (into a buffer of the
+    // largest size a PNG of this image can take), then written through a CheckedFile like every
+    // output.
     png_image png{};
     png.version = PNG_IMAGE_VERSION;
     png.width = static_cast<png_uint_32>(image.width);
     png.height = static_cast<png_uint_32>(image.height);
     png.format = PNG_FORMAT_RGB;
-    const std::string temp = temp_path_for(path);
-    const int ok = png_image_write_to_file(&png, temp.c_str(), 0, rgb.data(), 0, nullptr);
+    png_alloc_size_t size = PNG_IMAGE_PNG_SIZE_MAX(png);
+    std::vector<uint8_t> encoded(size);
+    const bool ok =
+        png_image_write_to_memory(&png, encoded.data(), &size, 0, rgb.data(), 0, nullptr) != 0;
     if (!ok) {
         const std::string message = png.message;
         png_image_free(&png);
-        std::remove(temp.c_str());
         throw std::runtime_error(path + ": cannot write PNG file: " + message);
     }
-    commit_temp(temp, path);
+    CheckedFile file(to.temp, path);
+    file.write(encoded.data(), size);
+    file.close("PNG file");
+}
+
+void write_png(const std::string& path, const Image& image, float exposure) {
+    OutputFiles out;
+    write_png(out.stage(path), image, exposure);
+    out.commit();
 }
 
 float linear_to_srgb(float v) {

@@ -1,6 +1,8 @@
 #include "media/density_grid.h"
 
 #include "core/error.h"
+#include "core/memory_budget.h"
+#include "core/world_range.h"
 #include "media/vdb_probe.h"
 
 #include <openvdb/openvdb.h>
@@ -10,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <mutex>
 
 namespace fogmap {
@@ -204,34 +205,40 @@ DMat4 to_glm(const openvdb::Mat4d& m) {
     return r;
 }
 
-void check_file_exists(const std::string& path, const std::string& field) {
-    if (!std::ifstream(path, std::ios::binary)) throw InputError(path, field, "cannot open file");
-}
+/// The sampler (build_majorants, then build_bricks) covers the whole active bounding box with
+/// cells of 8^3 voxels, whatever the grid holds: its memory and time follow from the box, so they
+/// are estimated from it first: build_majorants' 32 bytes per part (one more cell per axis), 12
+/// bytes per cell (majorant and BrickCell) and a 9^3 brick per leaf (a dense grid's cells each
+/// hold one). One active tile at the root level spans 4096^3 voxels: 134 million cells, ~6 GB.
+constexpr uint64_t kMaxSamplerCells = uint64_t(1) << 26;
 
-/// OpenVDB's messages about corrupt files quote raw bytes (e.g. "Grid type <garbage> is not
-/// registered"): keep messages one printable line of bounded length.
-std::string printable(const std::string& what) {
-    constexpr size_t kMaxLength = 300;
-    std::string s;
-    for (const char c : what.substr(0, kMaxLength))
-        s += (static_cast<unsigned char>(c) >= 0x20 && c != 0x7f) ? c : '?';
-    return what.size() > kMaxLength ? s + "..." : s;
-}
-
-/// A VDB header (magic, versions, offsets flag, UUID, metadata and grid counts) takes 65 bytes
-/// from file format 222 on. OpenVDB does not check its stream while reading it: a file cut inside
-/// the header opens as "0 grids", or reads a garbage string length and allocates gigabytes
-/// (found by tests/fuzz). Checked before OpenVDB opens the file.
-void check_header_complete(const std::string& path, const std::string& field) {
-    constexpr std::streamoff kHeaderBytes = 65;
-    std::ifstream in(path, std::ios::binary | std::ios::ate);
-    const std::streamoff size = in ? static_cast<std::streamoff>(in.tellg()) : 0;
-    if (size < kHeaderBytes) {
-        throw InputError(path, field,
-                         "cannot read VDB file: it ends after " + std::to_string(size) +
-                             " bytes, inside the VDB header (" + std::to_string(kHeaderBytes) +
-                             " bytes); the file is truncated or not a VDB file");
+void check_sampler_size(const std::string& path, const std::string& field,
+                        const std::string& grid_name, const CoordBBox& active, uint64_t leaves) {
+    constexpr int kCell = DensityGrid::kMajorantCell;
+    double cells = 1.0, parts = 1.0;
+    std::string span;
+    for (int a = 0; a < 3; ++a) {
+        // index_bounds() grows the active box by one voxel on each side.
+        const int64_t lo = static_cast<int64_t>(active.min()[a]) - 1;
+        const int64_t hi = static_cast<int64_t>(active.max()[a]) + 1;
+        const double n = std::floor(double(hi) / kCell) - std::floor(double(lo) / kCell) + 1.0;
+        cells *= n;
+        parts *= n + 1.0;
+        span += (a ? " x " : "") + std::to_string(hi - lo - 1);
     }
+    const double bricks = std::min(cells, static_cast<double>(leaves));
+    const double bytes = 32.0 * parts + 12.0 * cells +
+                         bricks * detail::kBrickValues * static_cast<double>(sizeof(float));
+    const uint64_t budget = memory_budget_bytes();
+    if (cells <= double(kMaxSamplerCells) && bytes <= double(budget)) return;
+    throw InputError(
+        path, field,
+        "grid '" + grid_name + "': its active voxels span " + span +
+            " voxels; the density sampler (cells of 8^3 voxels over that whole box) would need " +
+            std::to_string(static_cast<uint64_t>(cells)) + " cells and about " +
+            mb_text(static_cast<uint64_t>(bytes)) + "; expected at most " +
+            std::to_string(kMaxSamplerCells) + " cells and the memory available (" +
+            mb_text(budget) + ")");
 }
 
 }  // namespace
@@ -242,10 +249,10 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                                const std::string& grid_name,
                                                const std::string& field) {
     init_openvdb();
-    check_file_exists(path, field);
-    check_header_complete(path, field);
+    check_vdb_file(path, field);
     probe_vdb(path, field);  // OpenVDB 10.0 can crash on a corrupt file: read it in a child first
     FloatGrid::Ptr grid;
+    DMat4 index_to_world(1.0);
     try {
         openvdb::io::File file(path);
         file.open(/*delayLoad=*/false);
@@ -263,15 +270,33 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                              "grid '" + grid_name + "' has type " + base->valueType() +
                                  "; expected a float grid");
         }
+        if (!grid->transform().isLinear()) {
+            throw InputError(path, field,
+                             "grid '" + grid_name + "' has a " + grid->transform().mapType() +
+                                 " transform; expected an affine (linear) one");
+        }
+        // Throws ArithmeticError for a singular map (a bit flip in the file's transform).
+        index_to_world = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
     } catch (const InputError&) {
         throw;
     } catch (const std::exception& e) {
-        throw InputError(path, field, "cannot read VDB file: " + printable(e.what()));
+        throw InputError(path, field, vdb_error_reason(e.what()));
     }
-    if (!grid->transform().isLinear()) {
+    const std::string problem = affine_problem(index_to_world, "voxel size");
+    if (!problem.empty())
         throw InputError(path, field,
-                         "grid '" + grid_name + "' has a " + grid->transform().mapType() +
-                             " transform; expected an affine (linear) one");
+                         "grid '" + grid_name + "': its index-to-world transform " + problem);
+    // A grid cut short or with a damaged node reads as fewer voxels than OpenVDB counted when it
+    // wrote the file (the stats metadata io::File adds).
+    if (const auto written = grid->getMetadata<openvdb::Int64Metadata>("file_voxel_count")) {
+        const openvdb::Index64 read = grid->activeVoxelCount();
+        if (written->value() != static_cast<int64_t>(read))
+            throw InputError(path, field,
+                             "corrupt VDB file: grid '" + grid_name + "' has " +
+                                 std::to_string(read) +
+                                 " active voxels, but its metadata "
+                                 "(file_voxel_count) says " +
+                                 std::to_string(written->value()));
     }
 
     std::unique_ptr<DensityGrid> out(new DensityGrid());
@@ -314,14 +339,21 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
 
     CoordBBox active;
     if (tree.evalActiveVoxelBoundingBox(active) && max_density > 0.0f) {
+        check_sampler_size(path, field, grid_name, active, tree.leafCount());
         // Grown by one voxel: trilinear density ramps to 0 over the voxel beyond the last centre.
         out->index_bounds_.lo =
             Vec3(active.min().x() - 1, active.min().y() - 1, active.min().z() - 1);
         out->index_bounds_.hi =
             Vec3(active.max().x() + 1, active.max().y() + 1, active.max().z() + 1);
+    } else {
+        std::fprintf(stderr,
+                     "fogmap: warning: %s: grid '%s' has no active voxel above 0 (%llu active "
+                     "voxels); it renders as no medium\n",
+                     path.c_str(), grid_name.c_str(),
+                     static_cast<unsigned long long>(out->active_voxels_));
     }
     out->majorants_ = build_majorants(tree, out->index_bounds_);
-    out->index_to_world_ = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
+    out->index_to_world_ = index_to_world;
     // Last, on the sanitized tree; the tree itself is not kept (the sampler reads only bricks).
     out->bricks_ = build_bricks(tree, &out->majorants_);
     return out;
@@ -342,8 +374,7 @@ DensityGrid::Sampler::Sampler(const DensityGrid& grid)
 
 std::vector<GridInfo> inspect_vdb(const std::string& path) {
     init_openvdb();
-    check_file_exists(path, "");
-    check_header_complete(path, "");
+    check_vdb_file(path, "");
     probe_vdb(path, "");
     std::vector<GridInfo> infos;
     try {
@@ -397,7 +428,7 @@ std::vector<GridInfo> inspect_vdb(const std::string& path) {
     } catch (const InputError&) {
         throw;
     } catch (const std::exception& e) {
-        throw InputError(path, "", "cannot read VDB file: " + printable(e.what()));
+        throw InputError(path, "", vdb_error_reason(e.what()));
     }
     return infos;
 }

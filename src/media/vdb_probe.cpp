@@ -1,12 +1,14 @@
 #include "media/vdb_probe.h"
 
 #include "core/error.h"
+#include "core/input_file.h"
+#include "core/memory_budget.h"
 
 #include <openvdb/openvdb.h>
 
 #include <fcntl.h>
 #include <poll.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -17,6 +19,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <new>
 #include <set>
@@ -71,25 +74,33 @@ bool read_some(int fd, std::string& out) {
 }
 
 /// Runs `exe __probe-vdb -- path` (no shell), stdout piped back, stdin and stderr /dev/null;
-/// SIGKILL after `timeout_s`.
+/// SIGKILL after `timeout_s`. fork + exec rather than posix_spawn, to set PR_SET_PDEATHSIG in the
+/// child: it then gets SIGKILL when its parent dies (and exits at once if the parent died before
+/// the call). Between fork and exec the child makes only async-signal-safe calls.
 ChildResult run_child(const std::string& exe, const std::string& path, double timeout_s) {
     int fds[2];
     if (pipe2(fds, O_CLOEXEC) != 0)
         throw std::runtime_error(std::string("VDB probe: pipe: ") + std::strerror(errno));
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
     std::string args[] = {"fogmap", "__probe-vdb", "--", path};
     char* argv[] = {args[0].data(), args[1].data(), args[2].data(), args[3].data(), nullptr};
-    pid_t pid = 0;
-    const int err = posix_spawn(&pid, exe.c_str(), &actions, nullptr, argv, environ);
-    posix_spawn_file_actions_destroy(&actions);
+    const pid_t parent = getpid();
+    const pid_t pid = fork();
+    if (pid == 0) {
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || getppid() != parent) _exit(127);
+        const int null_in = open("/dev/null", O_RDONLY | O_CLOEXEC);
+        const int null_err = open("/dev/null", O_WRONLY | O_CLOEXEC);
+        if (null_in < 0 || null_err < 0 || dup2(null_in, STDIN_FILENO) < 0 ||
+            dup2(fds[1], STDOUT_FILENO) < 0 || dup2(null_err, STDERR_FILENO) < 0)
+            _exit(127);
+        execve(exe.c_str(), argv, environ);
+        _exit(127);
+    }
+    const int fork_errno = errno;
     close(fds[1]);
-    if (err != 0) {
+    if (pid < 0) {
         close(fds[0]);
-        throw std::runtime_error("VDB probe: cannot run '" + exe + "': " + std::strerror(err));
+        throw std::runtime_error("VDB probe: cannot run '" + exe +
+                                 "': " + std::strerror(fork_errno));
     }
 
     ChildResult r;
@@ -129,7 +140,99 @@ std::string message(std::string out) {
     return out.size() > kMaxMessageBytes ? s + "..." : s;
 }
 
+/// A VDB header (magic, versions, offsets flag, UUID, metadata and grid counts) takes 65 bytes
+/// from file format 222 on, and each grid's descriptor names the byte where its data ends (the
+/// next descriptor starts there). OpenVDB does not check its stream while reading: a file cut
+/// inside the header opens as "0 grids" or reads a garbage string length and allocates gigabytes
+/// (found by tests/fuzz), and a grid cut anywhere reads as an empty grid. So the header and the
+/// descriptors are walked here, bounded by the file's size, before OpenVDB opens the file.
+void check_vdb_layout(const std::string& path, const std::string& field, uint64_t size) {
+    constexpr uint64_t kHeaderBytes = 65;
+    if (size < kHeaderBytes) {
+        throw InputError(path, field,
+                         "cannot read VDB file: it ends after " + std::to_string(size) +
+                             " bytes, inside the VDB header (" + std::to_string(kHeaderBytes) +
+                             " bytes); the file is truncated or not a VDB file");
+    }
+    std::ifstream in(path, std::ios::binary);
+    uint64_t pos = 0;
+    const auto cut = [&](const std::string& where) {
+        return InputError(path, field,
+                          "truncated VDB file: it ends after " + std::to_string(size) +
+                              " bytes, inside " + where);
+    };
+    const auto read = [&](void* out, uint64_t n, const std::string& where) {
+        if (n > size - pos) throw cut(where);
+        in.seekg(static_cast<std::streamoff>(pos));
+        in.read(static_cast<char*>(out), static_cast<std::streamsize>(n));
+        if (!in) throw cut(where);
+        pos += n;
+    };
+    const auto u32 = [&](const std::string& where) {
+        uint32_t v = 0;
+        read(&v, 4, where);
+        return v;
+    };
+    const auto text = [&](const std::string& where) {
+        const uint32_t n = u32(where);
+        if (n > size - pos)  // OpenVDB would allocate n bytes and read on past the end
+            throw InputError(path, field,
+                             "truncated or corrupt VDB file: a string in " + where + " claims " +
+                                 std::to_string(n) + " bytes (" + mb_text(n) +
+                                 " of memory to read), more than the " +
+                                 std::to_string(size - pos) + " bytes left in the file");
+        std::string out(n, '\0');
+        read(out.data(), n, where);
+        return out;
+    };
+    const auto skip = [&](uint64_t n, const std::string& where) {
+        if (n > size - pos) throw cut(where);
+        pos += n;
+    };
+    uint64_t magic = 0;
+    read(&magic, 8, "the VDB header");
+    const uint32_t version = u32("the VDB header");
+    if (magic != openvdb::OPENVDB_MAGIC || version < 222) return;  // OpenVDB's own checks
+    pos = 20;
+    char has_offsets = 0;
+    read(&has_offsets, 1, "the VDB header");
+    if (!has_offsets) return;  // a stream written without grid offsets
+    pos = 57;
+    const uint32_t meta_count = u32("the file's metadata");
+    for (uint32_t i = 0; i < meta_count; ++i) {
+        text("the file's metadata");
+        text("the file's metadata");
+        skip(u32("the file's metadata"), "the file's metadata");
+    }
+    const uint32_t grids = u32("the VDB header");
+    for (uint32_t g = 0; g < grids; ++g) {
+        const std::string which = "grid " + std::to_string(g + 1) + " of " + std::to_string(grids);
+        const std::string where = "the descriptor of " + which;
+        const std::string name = message(text(where));
+        text(where);                                                                // grid type
+        if (version >= openvdb::OPENVDB_FILE_VERSION_GRID_INSTANCING) text(where);  // parent
+        int64_t grid_pos = 0, block_pos = 0, end_pos = 0;
+        read(&grid_pos, 8, where);
+        read(&block_pos, 8, where);
+        read(&end_pos, 8, where);
+        if (end_pos > static_cast<int64_t>(size))
+            throw InputError(path, field,
+                             "truncated VDB file: it ends after " + std::to_string(size) +
+                                 " bytes, but grid '" + name + "' (" + which + ") ends at byte " +
+                                 std::to_string(end_pos));
+        if (grid_pos < static_cast<int64_t>(pos) || block_pos < grid_pos || end_pos < block_pos)
+            throw InputError(path, field,
+                             "corrupt VDB file: the data offsets of grid '" + name + "' (" + which +
+                                 ") are out of order");
+        pos = static_cast<uint64_t>(end_pos);
+    }
+}
+
 }  // namespace
+
+void check_vdb_file(const std::string& path, const std::string& field) {
+    check_vdb_layout(path, field, check_input_file(path, field, "VDB file"));
+}
 
 void enable_vdb_probe(std::string self_exe) {
     ProbeState& state = probe_state();
@@ -152,7 +255,9 @@ void probe_vdb(const std::string& path, const std::string& field) {
                          "corrupt VDB file: OpenVDB's reader crashed on it (signal " +
                              std::to_string(WTERMSIG(r.status)) + ")");
     const int code = WIFEXITED(r.status) ? WEXITSTATUS(r.status) : -1;
-    if (code == 2) throw InputError(path, field, "cannot read VDB file: " + message(r.out));
+    if (code == 127)
+        throw std::runtime_error("VDB probe: cannot run '" + state.self_exe + "' for " + path);
+    if (code == 2) throw InputError(path, field, message(r.out));
     if (code != 0)
         throw InputError(path, field,
                          "corrupt VDB file: OpenVDB's reader failed on it (exit code " +
@@ -177,13 +282,42 @@ int run_vdb_probe_child(const std::string& path) {
         file.close();
         return 0;
     } catch (const std::bad_alloc&) {
-        std::printf("reading it needs more than the %llu MB memory limit for a %llu-byte file\n",
-                    static_cast<unsigned long long>(as_bytes >> 20),
-                    static_cast<unsigned long long>(bytes));
+        std::printf(
+            "corrupt VDB file: reading it needs more than the %llu MB memory limit for a "
+            "%llu-byte file\n",
+            static_cast<unsigned long long>(as_bytes >> 20),
+            static_cast<unsigned long long>(bytes));
     } catch (const std::exception& e) {
-        std::printf("%s\n", e.what());
+        std::printf("%s\n", vdb_error_reason(e.what()).c_str());
     }
     return 2;
+}
+
+std::string vdb_error_reason(const std::string& what) {
+    const auto has = [&](const char* s) { return what.find(s) != std::string::npos; };
+    // OpenVDB's messages start with its exception class ("IoError: ", "RuntimeError: ").
+    std::string text = what;
+    const size_t colon = text.find(": ");
+    if (colon != std::string::npos && colon >= 5 && colon < 20 &&
+        text.compare(colon - 5, 5, "Error") == 0)
+        text = text.substr(colon + 2);
+    if (has("not a VDB file"))
+        return "not a VDB file (its first bytes are not OpenVDB's magic number)";
+    if (has("decompress") || has("uncompressed chunk") || has("zlib") || has("Blosc"))
+        return "corrupt VDB file: a compressed block of voxel data does not decompress to its "
+               "stated size";
+    if (has("Grid type") && has("not registered"))
+        return "corrupt or unsupported VDB file: a grid's type is not one OpenVDB 10 knows";
+    if (has("Map") && (has("not registered") || has("KeyError")))
+        return "corrupt or unsupported VDB file: a grid's transform type is not one OpenVDB 10 "
+               "knows";
+    if (has("Metadata") || has("metadata"))
+        return "corrupt VDB file: a metadata entry is malformed";
+    if (has("singular") || has("ArithmeticError"))
+        return "corrupt VDB file: a grid's transform is singular or not finite";
+    if (has("max_size") || has("bad_alloc") || has("length_error") || has("too long"))
+        return "corrupt VDB file: a size field claims more data than the file holds";
+    return "corrupt VDB file (OpenVDB: " + message(text) + ")";
 }
 
 }  // namespace fogmap

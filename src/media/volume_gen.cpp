@@ -1,10 +1,11 @@
 #include "media/volume_gen.h"
 
+#include "core/error.h"
+#include "core/output_files.h"
 #include "core/rng.h"
+#include "media/vdb_probe.h"
 
 #include <openvdb/openvdb.h>
-
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -26,12 +27,16 @@ void init_openvdb() {
 }
 
 /// Writes `grid` to "<path>.tmp-<pid>", then renames it over `path` (STYLE.md: outputs go to a
-/// temp file, then rename). Active-mask + Blosc (or zip) compression keeps files small.
+/// temp file, then rename; core/output_files.h). OpenVDB writes through a std::ofstream whose
+/// failures it may not report, so the temp is renamed only after its header and grid descriptors
+/// were read back and found complete (check_vdb_file). Active-mask + Blosc (or zip) compression
+/// keeps files small.
 void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& path) {
     init_openvdb();
-    const std::string tmp = path + ".tmp-" + std::to_string(static_cast<long>(getpid()));
+    OutputFiles out;
+    const StagedFile to = out.stage(path);
     try {
-        openvdb::io::File file(tmp);
+        openvdb::io::File file(to.temp);
         const uint32_t codec = openvdb::io::Archive::hasBloscCompression()
                                    ? openvdb::io::COMPRESS_BLOSC
                                    : openvdb::io::COMPRESS_ZIP;
@@ -39,15 +44,14 @@ void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& pa
         openvdb::GridPtrVec grids{grid};
         file.write(grids);
         file.close();
+        check_vdb_file(to.temp, "");
+    } catch (const InputError& e) {
+        throw std::runtime_error("cannot write volume '" + path +
+                                 "': the file written is incomplete (" + e.reason + ")");
     } catch (const std::exception& e) {
-        std::remove(tmp.c_str());
         throw std::runtime_error("cannot write volume '" + path + "': " + e.what());
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-        std::remove(tmp.c_str());
-        throw std::runtime_error("cannot write volume '" + path + "': rename from '" + tmp +
-                                 "' failed");
-    }
+    out.commit();
 }
 
 openvdb::math::Transform::Ptr make_transform(const Vec3& voxel_size, const Vec3& translation) {

@@ -143,6 +143,10 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     }
     const int n = static_cast<int>(report.iterations.size());
     if (n > 1) out.film.scale(1.0f / static_cast<float>(n));
+    if (report.nonfinite > 0)
+        warn(&report, std::to_string(report.nonfinite) + " of " + std::to_string(report.samples) +
+                          " camera samples were not finite (NaN or infinite) and were dropped; "
+                          "the pixels they fell in are darker");
     report.scene = desc.path;
     report.settings = settings_json(desc);
     report.width = out.film.beauty.width;

@@ -1,7 +1,12 @@
 #include "scene/json_reader.h"
 
+#include "core/memory_budget.h"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
+#include <set>
 
 namespace fogmap {
 
@@ -48,6 +53,86 @@ bool integral_value(const nlohmann::json& v, long double* out) {
     }
     return true;
 }
+
+/// About the memory nlohmann::json takes for `text`, in bytes: a 16-byte node per value, 48 bytes
+/// per array or object, a 16-byte slot (doubled by vector growth) per array element and ~80
+/// bytes (map node, key string, value) per object member, plus the text of the strings.
+/// Structural characters are counted outside strings.
+uint64_t json_memory_estimate(const std::string& text) {
+    uint64_t containers = 0, separators = 0, members = 0;
+    bool quoted = false, escaped = false;
+    for (const char c : text) {
+        if (quoted) {
+            if (escaped)
+                escaped = false;
+            else if (c == '\\')
+                escaped = true;
+            else if (c == '"')
+                quoted = false;
+            continue;
+        }
+        quoted = c == '"';
+        containers += c == '[' || c == '{';
+        separators += c == ',';
+        members += c == ':';
+    }
+    return 48 * containers + 32 * (separators + 1) + 80 * members + text.size();
+}
+
+/// Finds keys given twice in one object (nlohmann keeps the last silently): the parser callback
+/// follows the JSON pointer of the current value and remembers the first duplicate.
+class DuplicateKeys {
+public:
+    bool on_event(nlohmann::json::parse_event_t event, const nlohmann::json& parsed) {
+        using E = nlohmann::json::parse_event_t;
+        switch (event) {
+            case E::object_start:
+            case E::array_start:
+                frames_.push_back({event == E::array_start, 0, "", {}});
+                break;
+            case E::key: {
+                Frame& top = frames_.back();
+                top.key = parsed.get<std::string>();
+                if (!top.keys.insert(top.key).second && first_.empty()) {
+                    first_ = pointer();
+                    key_ = top.key;
+                }
+                break;
+            }
+            case E::object_end:
+            case E::array_end:
+                frames_.pop_back();
+                next_element();
+                break;
+            case E::value:
+                next_element();
+                break;
+        }
+        return true;
+    }
+    /// JSON pointer of the first duplicate key, "" if none.
+    const std::string& first() const { return first_; }
+    const std::string& key() const { return key_; }
+
+private:
+    struct Frame {
+        bool array;
+        size_t index;
+        std::string key;
+        std::set<std::string> keys;
+    };
+    void next_element() {
+        if (!frames_.empty() && frames_.back().array) ++frames_.back().index;
+    }
+    std::string pointer() const {
+        std::string p;
+        for (const Frame& f : frames_)
+            p = json_pointer_append(p, f.array ? std::to_string(f.index) : f.key);
+        return p;
+    }
+    std::vector<Frame> frames_;
+    std::string first_, key_;
+};
 
 }  // namespace
 
@@ -223,6 +308,50 @@ void JsonReader::finish() const {
         if (known_.count(item.key())) continue;
         fail(pointer(item.key()), "unknown key '" + item.key() + "'; known keys: " +
                                       join(std::vector<std::string>(known_.begin(), known_.end())));
+    }
+}
+
+/// nlohmann reports the byte index of the last character read; line and column are counted
+/// from the text so that they point at that character (1-based; tabs count as one column).
+nlohmann::json parse_json_document(const std::string& text, const std::string& path) {
+    // Decided before parsing: a document that cannot fit fails here, naming its estimate.
+    const uint64_t needed = json_memory_estimate(text);
+    if (needed > memory_budget_bytes()) throw OutOfMemory(path, needed);
+    try {
+        DuplicateKeys duplicates;
+        nlohmann::json doc = nlohmann::json::parse(
+            text, [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+                return duplicates.on_event(event, parsed);
+            });
+        if (!duplicates.first().empty())
+            throw InputError(path, duplicates.first(),
+                             "key '" + duplicates.key() +
+                                 "' appears twice in one object; expected each key once");
+        return doc;
+    } catch (const std::bad_alloc&) {
+        throw OutOfMemory(path, needed);
+    } catch (const nlohmann::json::parse_error& e) {
+        const size_t offending = std::min(e.byte > 0 ? e.byte - 1 : 0, text.size());
+        size_t line = 1, line_start = 0;
+        for (size_t i = 0; i < offending; ++i) {
+            if (text[i] == '\n') {
+                ++line;
+                line_start = i + 1;
+            }
+        }
+        // Keep nlohmann's description but drop its own "[json.exception...] ... column N: ".
+        std::string detail = e.what();
+        const size_t column_at = detail.find("column ");
+        const size_t colon = detail.find(": ", column_at == std::string::npos ? 0 : column_at);
+        if (colon != std::string::npos) detail = detail.substr(colon + 2);
+        throw InputError(path, "",
+                         "invalid JSON at line " + std::to_string(line) + ", column " +
+                             std::to_string(offending - line_start + 1) + ": " + detail);
+    } catch (const nlohmann::json::exception& e) {  // e.g. out_of_range 406: number overflow
+        std::string detail = e.what();
+        const size_t bracket = detail.find("] ");
+        if (bracket != std::string::npos) detail = detail.substr(bracket + 2);
+        throw InputError(path, "", "invalid JSON: " + detail);
     }
 }
 

@@ -17,6 +17,13 @@
 
 namespace fogmap {
 
+/// Parses a whole JSON document read from `file`. Throws InputError{file, "", "invalid JSON at
+/// line L, column C: ..."} for a syntax error, InputError{file, pointer, ...} for a key given
+/// twice in one object (the parser would keep the last silently), and OutOfMemory{file, estimate}
+/// when the document's memory, estimated from its text before parsing, exceeds the memory budget
+/// (core/memory_budget.h) or the parser runs out of memory.
+nlohmann::json parse_json_document(const std::string& text, const std::string& file);
+
 /// "found string \"abc\"", "found number 1.5", "found array of 2 elements", ... for messages.
 std::string describe_json(const nlohmann::json& value);
 

@@ -1,6 +1,8 @@
 #include "scene/scene.h"
 
 #include "core/error.h"
+#include "core/world_range.h"
+#include "media/ray_march.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -42,6 +44,68 @@ void check_resolvable(const Medium& m, const SceneDesc& desc, size_t index) {
                   "(extinction at most %.3g here), or move it nearer the origin",
                   sigma, x, kLimit / x);
     throw InputError(desc.path, "/media/" + std::to_string(index), text);
+}
+
+/// What reaches Embree and the renderer stays in the world range (core/world_range.h).
+void check_world(const SceneDesc& desc, const std::string& field, const Box3& bounds,
+                 const std::string& what) {
+    if (!within_world(bounds))
+        throw InputError(desc.path, field,
+                         what + " spans " + box_text(bounds) +
+                             "; expected every coordinate within ±" + g_text(kMaxWorldCoordinate) +
+                             " world units");
+}
+
+/// Sun and environment powers depend on the scene's size (light.h, light_power): computed in
+/// double and held to the bound validate() holds the other lights to (kMaxLightPower).
+void check_light_powers(const SceneDesc& desc, const Box3& bounds) {
+    if (bounds.empty()) return;
+    const double r = 0.5 * glm::length(glm::dvec3(bounds.extent()));
+    for (size_t i = 0; i < desc.lights.size(); ++i) {
+        const LightDesc& l = desc.lights[i];
+        const bool sun = l.type == LightType::Sun;
+        if (!sun && l.type != LightType::Environment) continue;
+        const Color& c = sun ? l.irradiance : l.radiance;
+        const double factor = sun ? kPi * r * r : 4.0 * kPi * kPi * r * r;
+        for (int ch = 0; ch < 3; ++ch) {
+            const double power = factor * c[ch];
+            if (power <= kMaxLightPower) continue;
+            throw InputError(
+                desc.path, "/lights/" + std::to_string(i) + (sun ? "/irradiance" : "/radiance"),
+                std::string(sun ? "irradiance " : "radiance ") + g_text(c[ch]) +
+                    " over the scene's bounding sphere (radius " + g_text(r) +
+                    ") makes a power of " + g_text(power) + " W (channel " + std::to_string(ch) +
+                    "); expected at most " + g_text(kMaxLightPower) + " W per channel");
+        }
+    }
+}
+
+/// Steps per camera ray through each medium, estimated up front from the medium's diagonal and
+/// the march step (ray_march.h): the marcher takes at most kMaxStepsPerPiece steps per piece and
+/// lengthens them beyond, so a step that would need more is refused rather than silently
+/// changed (photon integrator: camera rays always march; plan.cpp).
+void check_march_steps(const SceneDesc& desc, const std::vector<Medium>& media) {
+    if (desc.render.integrator != Integrator::Photon) return;
+    for (size_t i = 0; i < media.size(); ++i) {
+        const Medium& m = media[i];
+        if (m.world_bounds().empty()) continue;
+        const double diagonal = glm::length(glm::dvec3(m.world_bounds().extent()));
+        const bool grid = m.grid() != nullptr;
+        const double step = grid ? double(desc.march.step_voxels) * m.voxel_world()
+                            : desc.march.step_world > 0.0f ? double(desc.march.step_world)
+                                                           : diagonal / 128.0;
+        const double steps = diagonal / step;
+        if (!(steps > RayMarcher::kMaxStepsPerPiece)) continue;
+        const std::string key = grid ? "step_voxels" : "step_world";
+        const double asked = grid ? desc.march.step_voxels : desc.march.step_world;
+        throw InputError(
+            desc.path, "/march/" + key,
+            key + " " + g_text(asked) + " makes about " + g_text(steps) +
+                " march steps per camera ray across medium " + std::to_string(i) + " (diagonal " +
+                g_text(diagonal) + " world units, step " + g_text(step) + "); at most " +
+                std::to_string(RayMarcher::kMaxStepsPerPiece) + " are marched, so expected " + key +
+                " >= " + g_text(asked * steps / RayMarcher::kMaxStepsPerPiece));
+    }
 }
 
 }  // namespace
@@ -96,6 +160,17 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
                 Mesh mesh =
                     load_mesh(resolve(desc, s.file), m, "/shapes/" + std::to_string(i) + "/file");
                 mesh.material = material;
+                Box3 bounds;
+                bool finite = true;
+                for (const Vec3& p : mesh.positions) {
+                    finite = finite && is_finite(p);
+                    bounds.extend(p);
+                }
+                const std::string what = "mesh '" + s.file + "' (after the transform)";
+                const std::string field = "/shapes/" + std::to_string(i) + "/transform";
+                if (!finite)
+                    throw InputError(desc.path, field, what + " has a vertex that is not finite");
+                check_world(desc, field, bounds, what);
                 meshes.push_back(std::move(mesh));
                 break;
             }
@@ -118,8 +193,12 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         auto& grid = grids[{path, m.grid}];
         if (!grid) grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
+        const Box3& bounds = scene->media.back().world_bounds();
+        if (!grid->empty())
+            check_world(desc, "/media/" + std::to_string(i) + "/transform", bounds,
+                        "grid '" + m.grid + "' of '" + m.file + "' (after both transforms)");
         check_resolvable(scene->media.back(), desc, i);
-        scene->bounds.extend(scene->media.back().world_bounds());
+        scene->bounds.extend(bounds);
     }
     scene->bounds.extend(desc.camera.position);
     for (size_t i = 0; i < desc.media.size(); ++i) {
@@ -139,6 +218,8 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         check_resolvable(scene->media.back(), desc, i);
     }
     for (const Medium& m : scene->media) scene->bounds.extend(m.world_bounds());
+    check_light_powers(desc, scene->bounds);
+    check_march_steps(desc, scene->media);
     if (!scene->bounds.empty()) scene->offset_floor = 1e-6f * glm::length(scene->bounds.extent());
     return scene;
 }

@@ -1,19 +1,16 @@
 #include "scene/scene_desc_json.h"
 
 #include "core/error.h"
+#include "core/input_file.h"
 #include "scene/json_reader.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <array>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 namespace fogmap {
 
@@ -355,53 +352,6 @@ json write_typed(const T& x, F fields) {
 
 // ---- Files and overrides -----------------------------------------------------------------------
 
-std::string read_text(const std::string& path) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) {
-        throw InputError(path, "", std::string("cannot open file: ") + std::strerror(EISDIR));
-    }
-    errno = 0;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        const int err = errno ? errno : ENOENT;
-        throw InputError(path, "", std::string("cannot open file: ") + std::strerror(err));
-    }
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    if (in.bad()) throw InputError(path, "", "cannot read file: " + std::string(strerror(errno)));
-    return ss.str();
-}
-
-/// nlohmann reports the byte index of the last character read; line and column are counted
-/// from the text so that they point at that character (1-based; tabs count as one column).
-json parse_text(const std::string& text, const std::string& path) {
-    try {
-        return json::parse(text);
-    } catch (const json::parse_error& e) {
-        const size_t offending = std::min(e.byte > 0 ? e.byte - 1 : 0, text.size());
-        size_t line = 1, line_start = 0;
-        for (size_t i = 0; i < offending; ++i) {
-            if (text[i] == '\n') {
-                ++line;
-                line_start = i + 1;
-            }
-        }
-        // Keep nlohmann's description but drop its own "[json.exception...] ... column N: ".
-        std::string detail = e.what();
-        const size_t column_at = detail.find("column ");
-        const size_t colon = detail.find(": ", column_at == std::string::npos ? 0 : column_at);
-        if (colon != std::string::npos) detail = detail.substr(colon + 2);
-        throw InputError(path, "",
-                         "invalid JSON at line " + std::to_string(line) + ", column " +
-                             std::to_string(offending - line_start + 1) + ": " + detail);
-    } catch (const json::exception& e) {  // e.g. out_of_range 406: number overflow
-        std::string detail = e.what();
-        const size_t bracket = detail.find("] ");
-        if (bracket != std::string::npos) detail = detail.substr(bracket + 2);
-        throw InputError(path, "", "invalid JSON: " + detail);
-    }
-}
-
 std::vector<std::string> split_key(const std::string& key) {
     std::vector<std::string> parts;
     size_t start = 0;
@@ -508,11 +458,20 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
             desc.materials[item.key()] = m;
         }
     }
-    desc.shapes = read_array<ShapeDesc>(top, "shapes", [](JsonReader& r) {
+    desc.shapes = read_array<ShapeDesc>(top, "shapes", [&desc](JsonReader& r) {
         ShapeDesc s;
         r.read_enum("type", kShapeTypes, "shape type", &s.type, true);
         FieldReader f{r};
         shape_fields(s, f);
+        if (!r.has("material")) {
+            std::string known;
+            for (const auto& item : desc.materials)
+                known += (known.empty() ? "" : ", ") + item.first;
+            r.require("material", "the name of a material in \"materials\" (" +
+                                      (known.empty() ? std::string("the scene defines none")
+                                                     : "defined: " + known) +
+                                      ")");
+        }
         return s;
     });
     desc.media = read_array<MediumDesc>(top, "media", [](JsonReader& r) {
@@ -585,7 +544,8 @@ json to_json(const SceneDesc& desc) {
 }
 
 SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides) {
-    json doc = parse_text(read_text(path), path);
+    json doc =
+        parse_json_document(read_input_file(path, "", "scene file", kMaxSceneFileBytes), path);
     for (const auto& o : overrides) apply_override(doc, o, path);
     try {
         SceneDesc desc = scene_desc_from_json(doc, path);

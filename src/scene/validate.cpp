@@ -1,6 +1,7 @@
 #include "scene/scene_desc.h"
 
 #include "core/error.h"
+#include "core/world_range.h"
 
 #include <cmath>
 #include <cstdio>
@@ -171,6 +172,38 @@ public:
                           lo_name + " " + vec(lo) + ", " + hi_name + " " + vec(hi));
         }
     }
+    /// Every coordinate of v within ±kMaxWorldCoordinate (core/world_range.h).
+    void world_point(const std::string& key, const Vec3& v) const {
+        finite_vec(key, v);
+        for (int a = 0; a < 3; ++a)
+            if (!(std::abs(double(v[a])) <= kMaxWorldCoordinate))
+                fail(key, key + " must lie within ±" + num(kMaxWorldCoordinate) +
+                              " world units on every axis; found " + vec(v));
+    }
+    /// A transform that places things in the world: finite, invertible, scales in range.
+    void transform(const Mat4& m) const {
+        const std::string problem = affine_problem(m);
+        if (!problem.empty()) fail("transform", "transform " + problem);
+    }
+    /// The world box of a shape, `what` in the message ("the transformed shape").
+    void world_box(const std::string& key, const Box3& b, const char* what) const {
+        if (!within_world(b))
+            fail(key, std::string(what) + " spans " + box_text(b) +
+                          "; expected every coordinate within ±" + num(kMaxWorldCoordinate) +
+                          " world units");
+    }
+    /// factor * c per channel, computed in double, at most kMaxLightPower; `what` names the
+    /// product and `unit` its unit in the message ("a power", "W").
+    void power(const std::string& key, const Color& c, double factor, const char* what,
+               const char* unit) const {
+        for (int i = 0; i < 3; ++i) {
+            const double p = factor * double(c[i]);
+            if (!(p <= kMaxLightPower))
+                fail(key, key + " " + vec(c) + " gives " + what + " of " + num(p) + " " + unit +
+                              " (channel " + std::to_string(i) + "); expected at most " +
+                              num(kMaxLightPower) + " " + unit + " per channel");
+        }
+    }
     void parallelogram(const Vec3& u, const Vec3& v) const {
         finite_vec("edge_u", u);
         finite_vec("edge_v", v);
@@ -185,14 +218,20 @@ private:
     std::string pointer_;
 };
 
+Box3 parallelogram_box(const Vec3& corner, const Vec3& u, const Vec3& v) {
+    Box3 b;
+    for (const Vec3& p : {corner, corner + u, corner + v, corner + u + v}) b.extend(p);
+    return b;
+}
+
 void check_camera(const SceneDesc& desc) {
     const CameraDesc& c = desc.camera;
     const Checker k(desc, "/camera");
     k.int_range("width", c.width, 1, kMaxResolution);
     k.int_range("height", c.height, 1, kMaxResolution);
     k.range("fov_deg", c.fov_deg, 0.0f, 180.0f, true);
-    k.finite_vec("position", c.position);
-    k.finite_vec("look_at", c.look_at);
+    k.world_point("position", c.position);
+    k.world_point("look_at", c.look_at);
     k.non_zero("up", c.up);
     const Vec3 view = c.look_at - c.position;
     if (glm::length(view) == 0.0f) {
@@ -212,11 +251,13 @@ void check_light(const SceneDesc& desc, size_t i) {
     switch (l.type) {
         case LightType::Point:
             k.non_negative("intensity", l.intensity);
-            k.finite_vec("position", l.position);
+            k.power("intensity", l.intensity, 4.0 * kPi, "a power", "W");
+            k.world_point("position", l.position);
             break;
         case LightType::Spot:
             k.non_negative("intensity", l.intensity);
-            k.finite_vec("position", l.position);
+            k.power("intensity", l.intensity, 4.0 * kPi, "a power up to", "W");
+            k.world_point("position", l.position);
             k.non_zero("direction", l.direction);
             k.range("cone_angle_deg", l.cone_angle_deg, 0.0f, 180.0f, true);
             if (!std::isfinite(l.cone_delta_deg) || l.cone_delta_deg < 0.0f ||
@@ -227,17 +268,25 @@ void check_light(const SceneDesc& desc, size_t i) {
             }
             break;
         case LightType::Quad:
-            k.finite_vec("corner", l.corner);
+            k.world_point("corner", l.corner);
             k.parallelogram(l.edge_u, l.edge_v);
+            k.world_box("edge_v", parallelogram_box(l.corner, l.edge_u, l.edge_v), "the quad");
             k.non_negative("radiance", l.radiance);
+            k.power("radiance", l.radiance,
+                    kPi * glm::length(glm::dvec3(glm::cross(l.edge_u, l.edge_v))), "a power", "W");
             break;
         case LightType::Sun:
+            // The power (irradiance times the scene's cross-section) is checked at load, when
+            // the scene's bounds are known (scene.cpp); here the irradiance itself.
             k.non_zero("direction", l.direction);
             k.non_negative("irradiance", l.irradiance);
+            k.power("irradiance", l.irradiance, 1.0, "an irradiance", "W/m^2");
             k.range("angular_radius_deg", l.angular_radius_deg, 0.0f, 45.0f, false);
             break;
         case LightType::Environment:
             k.non_negative("radiance", l.radiance);
+            k.power("radiance", l.radiance, 4.0 * kPi * kPi, "a power per unit of cross-section",
+                    "W/m^2");
             break;
     }
 }
@@ -288,28 +337,45 @@ void check_shape(const SceneDesc& desc, size_t i) {
                                (known.empty() ? std::string("the scene defines no materials")
                                               : "known materials: " + known));
     }
+    const Mat4& m = s.transform.matrix;
+    for (int c = 0; c < 4; ++c) {
+        if (!finite(Vec3(m[c]))) k.fail("transform", "transform is not finite");
+    }
+    k.transform(m);
+    Box3 world;  // corners of the shape (its bounding box for a sphere) after the transform
+    const auto add = [&](const Vec3& p) { world.extend(transform_point(m, p)); };
     switch (s.type) {
         case ShapeType::Quad:
-            k.finite_vec("corner", s.corner);
+            k.world_point("corner", s.corner);
             k.parallelogram(s.edge_u, s.edge_v);
+            k.world_box("edge_v", parallelogram_box(s.corner, s.edge_u, s.edge_v), "the quad");
+            for (const Vec3& p : {s.corner, s.corner + s.edge_u, s.corner + s.edge_v,
+                                  s.corner + s.edge_u + s.edge_v})
+                add(p);
             break;
         case ShapeType::Box:
+            k.world_point("min", s.min);
+            k.world_point("max", s.max);
             k.box("max", s.min, s.max, "min", "max");
+            for (int c = 0; c < 8; ++c)
+                add(Vec3(c & 1 ? s.max.x : s.min.x, c & 2 ? s.max.y : s.min.y,
+                         c & 4 ? s.max.z : s.min.z));
             break;
         case ShapeType::Sphere:
-            k.finite_vec("center", s.center);
-            check_similarity(k, s.transform.matrix);
+            k.world_point("center", s.center);
+            check_similarity(k, m);
             if (!std::isfinite(s.radius) || s.radius <= 0.0f) {
                 k.fail("radius", "radius must be finite and > 0; found " + num(s.radius));
             }
+            for (int c = 0; c < 8; ++c)
+                add(s.center + s.radius * Vec3(c & 1 ? 1.0f : -1.0f, c & 2 ? 1.0f : -1.0f,
+                                               c & 4 ? 1.0f : -1.0f));
             break;
-        case ShapeType::Mesh:
+        case ShapeType::Mesh:  // its vertices are checked when the file is read (scene.cpp)
             if (s.file.empty()) k.fail("file", "file is empty; expected an .obj or .ply path");
             break;
     }
-    for (int c = 0; c < 4; ++c) {
-        if (!finite(Vec3(s.transform.matrix[c]))) k.fail("transform", "transform is not finite");
-    }
+    if (!world.empty()) k.world_box("transform", world, "the transformed shape");
 }
 
 void check_medium(const SceneDesc& desc, size_t i) {
@@ -336,9 +402,15 @@ void check_medium(const SceneDesc& desc, size_t i) {
         case MediumType::Vdb:
             if (m.file.empty()) k.fail("file", "file is empty; expected a .vdb path");
             if (m.grid.empty()) k.fail("grid", "grid is empty; expected a float grid name");
+            // The grid's own transform and the world bounds it gives are checked at load.
+            k.transform(m.transform.matrix);
             break;
         case MediumType::Homogeneous:
-            if (m.bounds) k.box("bounds", m.bounds->lo, m.bounds->hi, "bounds.min", "bounds.max");
+            if (m.bounds) {
+                k.box("bounds", m.bounds->lo, m.bounds->hi, "bounds.min", "bounds.max");
+                k.world_point("bounds", m.bounds->lo);
+                k.world_point("bounds", m.bounds->hi);
+            }
             break;
     }
 }

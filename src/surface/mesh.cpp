@@ -1,18 +1,17 @@
 #include "surface/mesh.h"
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 
 namespace fogmap {
@@ -49,19 +48,7 @@ void add_polygon(Mesh* mesh, const std::vector<uint32_t>& polygon) {
 }
 
 std::string read_file(const std::string& path, const std::string& field) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) {
-        throw InputError(path, field, std::string("cannot open file: ") + std::strerror(EISDIR));
-    }
-    errno = 0;
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        throw InputError(path, field,
-                         std::string("cannot open file: ") + std::strerror(errno ? errno : ENOENT));
-    }
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+    return read_input_file(path, field, "mesh file", kMaxMeshFileBytes);
 }
 
 // ---- OBJ ---------------------------------------------------------------------------------------

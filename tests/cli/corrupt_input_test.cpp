@@ -66,18 +66,44 @@ protected:
         EXPECT_EQ(files, std::set<std::string>{"old.exr"}) << "nothing new is written";
     }
 
-    /// A small scene whose top-level object gets `extra` (a leading comma included).
+    /// A small scene whose top-level object gets `extra` (a leading comma included). A key of
+    /// `extra` replaces the base's (a key given twice is an error of its own).
     fs::path scene(const std::string& extra, const std::string& name = "s.json") {
+        const std::pair<const char*, const char*> base[] = {
+            {"camera",
+             R"({"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6})"},
+            {"lights", R"([{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}])"},
+            {"materials", R"({"ground": {"type": "diffuse", "albedo": 0.5}})"},
+            {"photons", R"({"global": 100, "caustic": 0, "volume": 100})"},
+            {"shapes", R"([{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10],
+              "edge_v": [10, 0, 0], "material": "ground"}])"}};
+        const std::set<std::string> replaced = top_level_keys(extra);
+        std::string text;
+        for (const auto& [key, value] : base)
+            if (!replaced.count(key))
+                text += std::string(text.empty() ? "{\n  " : ",\n  ") + "\"" + key + "\": " + value;
         const fs::path p = dir_ / name;
-        spit(p, R"({
-  "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
-  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
-  "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
-  "photons": {"global": 100, "caustic": 0, "volume": 100},
-  "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10], "edge_v": [10, 0, 0],
-              "material": "ground"}])" +
-                    extra + "\n}\n");
+        spit(p, text + extra + "\n}\n");
         return p;
+    }
+
+    /// The keys at nesting depth 0 of a JSON fragment such as `, "a": {"b": 1}, "c": 2`.
+    static std::set<std::string> top_level_keys(const std::string& fragment) {
+        std::set<std::string> keys;
+        int depth = 0;
+        for (size_t i = 0; i < fragment.size(); ++i) {
+            const char c = fragment[i];
+            if (c == '{' || c == '[') ++depth;
+            if (c == '}' || c == ']') --depth;
+            if (c != '"') continue;
+            const size_t end = fragment.find('"', i + 1);
+            if (end == std::string::npos) break;
+            const size_t after = fragment.find_first_not_of(" \n", end + 1);
+            if (depth == 0 && after != std::string::npos && fragment[after] == ':')
+                keys.insert(fragment.substr(i + 1, end - i - 1));
+            i = end;
+        }
+        return keys;
     }
 
     fs::path vdb_scene(const fs::path& vdb) {
@@ -96,7 +122,7 @@ protected:
 
 TEST_F(CorruptInput, TruncatedVdbNamesTheFile) {
     const std::string bytes = shared_vdb();
-    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    if (bytes.empty()) return test::missing_shared_volume(FOGMAP_SHARED_VOLUMES);
     // Cut inside the magic number, inside the header, inside the first grid's descriptor and
     // in the middle of the density grid's data.
     for (const size_t keep : {size_t(0), size_t(7), size_t(40), size_t(200), bytes.size() / 2}) {
@@ -115,7 +141,7 @@ TEST_F(CorruptInput, TruncatedVdbNamesTheFile) {
 
 TEST_F(CorruptInput, BitFlippedVdbHeaderNamesTheFile) {
     const std::string bytes = shared_vdb();
-    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    if (bytes.empty()) return test::missing_shared_volume(FOGMAP_SHARED_VOLUMES);
     // The magic number and the file format version's low byte: each flip must be detected.
     // (Higher version bytes and the library version read as a newer file: OpenVDB reads on.)
     for (const size_t at : {size_t(0), size_t(3), size_t(8)}) {
@@ -133,7 +159,7 @@ TEST_F(CorruptInput, BitFlippedVdbHeaderNamesTheFile) {
 // file with nothing written.
 TEST_F(CorruptInput, BitFlippedVdbBodyNeverCrashes) {
     const std::string bytes = shared_vdb();
-    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    if (bytes.empty()) return test::missing_shared_volume(FOGMAP_SHARED_VOLUMES);
     for (int n = 1; n <= 6; ++n) {
         const size_t at = bytes.size() * n / 7;
         SCOPED_TRACE("flipped byte " + std::to_string(at));
@@ -203,7 +229,7 @@ TEST_F(CorruptInput, VdbGridNameOfFourGigabytesIsRejected) {
     GTEST_SKIP() << "the probe's address-space limit (and ulimit -v) cannot apply under ASan";
 #endif
     const std::string bytes = shared_vdb();
-    if (bytes.empty()) GTEST_SKIP() << "shared volumes not found";
+    if (bytes.empty()) return test::missing_shared_volume(FOGMAP_SHARED_VOLUMES);
     // The first grid descriptor's name length (uint32 before "density") set to ~4 GB: OpenVDB
     // allocates and reads on (with no memory limit a reader grew to 24 GB until killed). The
     // probe's child fails at its own limit; `ulimit -v` (KB) only keeps a regression from taking

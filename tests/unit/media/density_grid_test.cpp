@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "media/volume_gen.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
@@ -368,7 +369,7 @@ TEST_F(DensityGridTest, Vec3GridErrorNamesItsType) {
 
 TEST_F(DensityGridTest, MissingGridErrorListsGridsPresent) {
     const std::string file = shared_file("usd_densityAndHeat.vdb");
-    if (file.empty()) GTEST_SKIP() << "shared volumes absent";
+    if (file.empty()) return test::missing_shared_volume(kShared);
     try {
         DensityGrid::load(file, "dens", "/media/0/grid");
         FAIL() << "no exception";
@@ -383,7 +384,7 @@ TEST_F(DensityGridTest, MissingGridErrorListsGridsPresent) {
 
 TEST_F(DensityGridTest, DisneyCloudTilesSampleAsHalf) {
     const std::string file = shared_file("wdas_cloud_sixteenth.vdb");
-    if (file.empty()) GTEST_SKIP() << "shared volumes absent";
+    if (file.empty()) return test::missing_shared_volume(kShared);
     auto grid = DensityGrid::load(file, "density", "");
     EXPECT_EQ(grid->active_voxels(), 415642u);  // SOURCES.md, tiles included
     EXPECT_EQ(grid->sanitize_stats().total(), 0u);
@@ -502,7 +503,7 @@ TEST_F(DensityGridTest, SamplerMatchesBoxSamplerOnSharedVolumes) {
     for (const char* name : {"smoke1.vdb", "wdas_cloud_sixteenth.vdb"}) {
         SCOPED_TRACE(name);
         const std::string file = shared_file(name);
-        if (file.empty()) GTEST_SKIP() << "shared volumes absent";
+        if (file.empty()) return test::missing_shared_volume(kShared);
         auto grid = DensityGrid::load(file, "density", "");
         ASSERT_EQ(grid->sanitize_stats().total(), 0u);  // so the raw tree is the sampled one
         Rng rng(99, 6);
@@ -556,7 +557,7 @@ TEST_F(DensityGridTest, SharedFilesMatchSources) {
     for (const SharedFile& sf : files) {
         SCOPED_TRACE(sf.name);
         const std::string file = shared_file(sf.name);
-        if (file.empty()) GTEST_SKIP() << "shared volumes absent";
+        if (file.empty()) return test::missing_shared_volume(kShared);
         auto grid = DensityGrid::load(file, "density", "");
         EXPECT_EQ(grid->active_voxels(), sf.active_voxels);
         EXPECT_FALSE(grid->empty());
@@ -590,7 +591,7 @@ TEST_F(DensityGridTest, InspectListsGridsWithSourcesFigures) {
     const std::string heat_file = shared_file("usd_densityAndHeat.vdb");
     const std::string cloud_file = shared_file("wdas_cloud_sixteenth.vdb");
     const std::string smoke_file = shared_file("smoke1.vdb");
-    if (heat_file.empty()) GTEST_SKIP() << "shared volumes absent";
+    if (heat_file.empty()) return test::missing_shared_volume(kShared);
     const std::vector<GridInfo> two = inspect_vdb(heat_file);
     ASSERT_EQ(two.size(), 2u);
     EXPECT_EQ(two[0].name, "density");

@@ -1,0 +1,181 @@
+// Hostile scene files (issue 15): a key given twice, a shape without its material, transforms
+// that are singular or out of the world range, lights whose power overflows float, and files that
+// are not regular files or are too large to read. Each is an InputError naming the JSON pointer
+// (or the file) with what was found and what was expected.
+
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/world_range.h"
+#include "scene/scene_desc_json.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <string>
+
+namespace fogmap {
+namespace {
+
+using nlohmann::json;
+using test::catch_input_error;
+
+/// A valid scene with a quad and a box, a sun and a point light.
+json scene() {
+    return json::parse(R"({
+      "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0], "width": 8, "height": 6},
+      "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3},
+                 {"type": "point", "position": [0, 3, 0], "intensity": 10}],
+      "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
+      "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10],
+                  "edge_v": [10, 0, 0], "material": "ground"},
+                 {"type": "box", "material": "ground"}]
+    })");
+}
+
+InputError validate_error(const json& doc) {
+    return catch_input_error([&] { validate(scene_desc_from_json(doc, "scene.json")); });
+}
+
+TEST(SceneInput, TheValidSceneValidates) {
+    EXPECT_NO_THROW(validate(scene_desc_from_json(scene(), "scene.json")));
+}
+
+TEST(SceneInput, DuplicateKeyIsAnErrorNamingItsPointer) {
+    test::TempDir dir("fogmap_scene_input");
+    // The same key twice at the top, inside an object, and inside an array's object.
+    const std::pair<std::string, std::string> cases[] = {
+        {R"({"render": {"spp": 1}, "render": {"spp": 2}})", "/render"},
+        {R"({"camera": {"width": 8, "height": 6, "width": 9}})", "/camera/width"},
+        {R"({"materials": {"m": {"type": "diffuse"}},
+             "shapes": [{"type": "box", "material": "m"},
+                        {"type": "box", "material": "m", "material": "m"}]})",
+         "/shapes/1/material"},
+    };
+    for (const auto& [text, pointer] : cases) {
+        SCOPED_TRACE(text);
+        const std::string path = dir.write("dup.json", text);
+        const InputError e = catch_input_error([&] { load_scene_desc(path); });
+        EXPECT_EQ(e.file, path);
+        EXPECT_EQ(e.field, pointer);
+        const std::string key = pointer.substr(pointer.rfind('/') + 1);
+        EXPECT_NE(e.reason.find("key '" + key + "' appears twice"), std::string::npos) << e.reason;
+    }
+    // Equal keys in different objects are fine.
+    const std::string path = dir.write(
+        "ok.json", R"({"camera": {"width": 8}, "render": {"spp": 1}, "photons": {"global": 0}})");
+    EXPECT_NO_THROW(load_scene_desc(path));
+}
+
+TEST(SceneInput, ShapeWithoutMaterialSaysTheKeyIsMissing) {
+    json doc = scene();
+    doc["shapes"][1].erase("material");
+    const InputError e = catch_input_error([&] { scene_desc_from_json(doc, "scene.json"); });
+    EXPECT_EQ(e.field, "/shapes/1/material");
+    EXPECT_NE(e.reason.find("missing key 'material'"), std::string::npos) << e.reason;
+    EXPECT_NE(e.reason.find("ground"), std::string::npos) << "lists the materials: " << e.reason;
+}
+
+TEST(SceneInput, SingularOrOutOfRangeTransformsNameTheField) {
+    struct Case {
+        const char* pointer;  // where `value` is put
+        json value;
+        const char* field;   // the field the error names
+        const char* reason;  // part of the reason
+    };
+    const Case cases[] = {
+        // Zero scale: the box would vanish.
+        {"/shapes/1/transform", json::parse(R"({"scale": [1, 0, 1]})"), "/shapes/1/transform",
+         "axis scales 1 x 0 x 1"},
+        // Two axes made parallel by a matrix: singular though no axis is zero.
+        {"/shapes/1/transform", json::parse(R"({"matrix": [1,1,0,0, 0,0,1,0, 0,0,1,0, 0,0,0,1]})"),
+         "/shapes/1/transform", "singular"},
+        {"/shapes/1/transform", json::parse(R"({"scale": 1e18})"), "/shapes/1/transform",
+         "axis scales 1e+18 x 1e+18 x 1e+18"},
+        {"/shapes/1/transform", json::parse(R"({"translate": [1e12, 0, 0]})"),
+         "/shapes/1/transform", "translation 1e+12"},
+        // In range itself (1e8 as a float), but the transformed quad reaches 1e8 + 5.
+        {"/shapes/0/transform", json::parse(R"({"translate": [99999999, 0, 0]})"),
+         "/shapes/0/transform", "the transformed shape spans"},
+        {"/camera/position", json::parse("[0, 1e12, 4]"), "/camera/position", "within ±1e+08"},
+        {"/lights/1/position", json::parse("[1e30, 0, 0]"), "/lights/1/position", "within ±1e+08"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
+        json doc = scene();
+        doc[json::json_pointer(c.pointer)] = c.value;
+        const InputError e = validate_error(doc);
+        EXPECT_EQ(e.field, c.field);
+        EXPECT_NE(e.reason.find(c.reason), std::string::npos) << e.reason;
+    }
+    // A medium's transform: its own field too.
+    json doc = scene();
+    doc["media"] = json::parse(R"([{"type": "vdb", "file": "x.vdb",
+                                    "transform": {"scale": [2, 2, 0]}}])");
+    EXPECT_EQ(validate_error(doc).field, "/media/0/transform");
+}
+
+TEST(SceneInput, TransformRangeBoundariesAreAccepted) {
+    // The stated range (core/world_range.h) is inclusive: scales 1e-6 and 1e6 are fine.
+    for (const double scale : {kMinScale, kMaxScale}) {
+        json doc = scene();
+        doc["shapes"][1]["transform"] = {{"scale", scale}};
+        EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json"))) << scale;
+    }
+}
+
+TEST(SceneInput, LightPowerBeyondFloatHeadroomIsRefused) {
+    struct Case {
+        const char* pointer;
+        json value;
+        const char* field;
+    };
+    // Point: 4π I; quad: π A L; sun: E itself (its power needs the scene size: checked at load);
+    // environment: 4π² L per unit of cross-section. Each here exceeds 1e20 W (per m²).
+    const Case cases[] = {
+        {"/lights/0/irradiance", 1e36, "/lights/0/irradiance"},
+        {"/lights/1/intensity", 1e19, "/lights/1/intensity"},  // 4π 1e19 = 1.26e20
+        {"/lights/1", json::parse(R"({"type": "environment", "radiance": [1, 1e19, 1]})"),
+         "/lights/1/radiance"},
+        {"/lights/1", json::parse(R"({"type": "quad", "corner": [0, 3, 0], "edge_u": [1e3, 0, 0],
+                                      "edge_v": [0, 0, 1e3], "radiance": 1e14})"),
+         "/lights/1/radiance"},  // π 1e6 1e14 = 3.1e20
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
+        json doc = scene();
+        doc[json::json_pointer(c.pointer)] = c.value;
+        const InputError e = validate_error(doc);
+        EXPECT_EQ(e.field, c.field);
+        EXPECT_NE(e.reason.find("expected at most 1e+20"), std::string::npos) << e.reason;
+    }
+    // Just below: 4π 7e18 = 8.8e19 W.
+    json doc = scene();
+    doc["lights"][1]["intensity"] = 7e18;
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+}
+
+TEST(SceneInput, NonRegularAndOversizedFilesAreRefusedBeforeReading) {
+    test::TempDir dir("fogmap_scene_input");
+    const std::string fifo = (dir.path() / "scene.fifo").string();
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    // Opening the FIFO would block until a writer comes: it must be refused by stat alone.
+    InputError e = catch_input_error([&] { load_scene_desc(fifo); });
+    EXPECT_EQ(e.file, fifo);
+    EXPECT_NE(e.reason.find("FIFO"), std::string::npos) << e.reason;
+    e = catch_input_error([&] { load_scene_desc("/dev/zero"); });
+    EXPECT_NE(e.reason.find("character device"), std::string::npos) << e.reason;
+    e = catch_input_error([&] { load_scene_desc(dir.path().string()); });
+    EXPECT_NE(e.reason.find("folder"), std::string::npos) << e.reason;
+
+    // A sparse file one byte over the cap: refused by its size, without being read.
+    const std::string big = dir.write("big.json", "");
+    std::filesystem::resize_file(big, kMaxSceneFileBytes + 1);
+    e = catch_input_error([&] { load_scene_desc(big); });
+    EXPECT_EQ(e.file, big);
+    EXPECT_NE(e.reason.find("at most 16 MB"), std::string::npos) << e.reason;
+}
+
+}  // namespace
+}  // namespace fogmap
