@@ -310,23 +310,26 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     // variances): a map's variance is about Σ_s W_s P_ms, W_s = Φ_s / N_s the power of one photon
     // of stream s and P_ms the power stream s deposits in map m; minimising Σ_m Var_m / P_m² for a
     // total cost Σ_s N_s c_s gives N_s ∝ sqrt(Φ_s Σ_m (P_ms / P_m²) / c_s), c_s = 1 + interactions
-    // per attempt. Every stream keeps at least 5% of its share under plain emission (∝ Φ_s), so
-    // light the pilot saw little of is still sampled. Recomputed each time a map closes.
+    // per attempt, P_ms estimated from every photon so far and recomputed every round. Every
+    // stream keeps at least 5% of its share under plain emission (∝ Φ_s), so light the pilot saw
+    // little of is still sampled.
     double max_power = 0.0;
     for (const PhotonStream& st : set.streams) max_power = std::max(max_power, st.region_power);
     auto allocation = [&] {
+        std::vector<std::array<double, 3>> deposited(n_streams);
         std::array<double, 3> map_power{0.0, 0.0, 0.0};
         for (size_t s = 0; s < n_streams; ++s)
-            for (int m = 0; m < 3; ++m)
-                map_power[m] += set.streams[s].region_power * pairs[s][m].power / behind(s, m);
+            for (int m = 0; m < 3; ++m) {
+                deposited[s][m] = set.streams[s].region_power * pairs[s][m].power / behind(s, m);
+                map_power[m] += deposited[s][m];
+            }
         std::vector<double> rate(n_streams, 0.0);
         double max_rate = 0.0;
         for (size_t s = 0; s < n_streams; ++s) {
             double g = 0.0;
             for (int m = 0; m < 3; ++m)
                 if (open[m] && map_power[m] > 0.0)
-                    g += set.streams[s].region_power * pairs[s][m].power / behind(s, m) /
-                         (map_power[m] * map_power[m]);
+                    g += deposited[s][m] / (map_power[m] * map_power[m]);
             const double cost =
                 1.0 + double(interactions[s]) / double(std::max<uint64_t>(1, attempts[s]));
             rate[s] = std::sqrt(set.streams[s].region_power * g / cost);
@@ -340,13 +343,8 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
 
     // Rounds of the allocation until every map is full or the cap is reached.
     uint64_t shown = 0;
-    std::array<bool, 3> allocated_for{false, false, false};
-    std::vector<double> rate;
     while (any_open()) {
-        if (allocated_for != open) {
-            rate = allocation();
-            allocated_for = open;
-        }
+        const std::vector<double> rate = allocation();
         const uint64_t left = cap > total_attempts() ? cap - total_attempts() : 0;
         if (left == 0) break;
         std::vector<uint64_t> count(n_streams, 0);

@@ -32,12 +32,14 @@ bool survive(int depth, Color* beta, Rng& rng) {
 
 // Either a phase function (travel direction) or a Lambertian lobe (normal facing the viewer).
 struct PathTracer::Lobe {
-    const PhaseMix* phase;  // null: diffuse
-    Vec3 dir;               // phase: incoming travel direction; diffuse: shading normal
-    Color albedo;           // diffuse
+    const PhaseMix* phase;              // null: diffuse
+    Vec3 dir;                           // phase: incoming travel direction; diffuse: shading normal
+    Color albedo;                       // diffuse
+    const GuideLobes* guide = nullptr;  // phase: the guide directions are sampled from
 };
 
-PathTracer::PathTracer(const Scene& scene, int max_depth) : scene_(scene), max_depth_(max_depth) {
+PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide)
+    : scene_(scene), max_depth_(max_depth), guide_(guide) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
 }
@@ -118,8 +120,8 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         Color f;
         float lobe_pdf;
         if (lobe.phase) {
-            lobe_pdf = lobe.phase->eval(glm::dot(lobe.dir, s.wi));
-            f = Color(lobe_pdf);
+            f = Color(lobe.phase->eval(glm::dot(lobe.dir, s.wi)));
+            lobe_pdf = lobe.guide ? guide_->pdf(*lobe.guide, *lobe.phase, lobe.dir, s.wi) : f.x;
         } else {
             const float cos = glm::dot(lobe.dir, s.wi);
             if (cos <= 0.0f) continue;
@@ -164,8 +166,17 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
                 ++depth;
                 const Vec3 x = ray.at(tr.t);
                 const PhaseMix phase(ts.media, x);
-                L += beta * direct_light(x, Lobe{&phase, ray.d, Color(0.0f)}, rng, ts);
-                const Vec3 wi = phase.sample(ray.d, rng, &prev_pdf);  // weight phase/pdf = 1
+                const bool guided = guide_ && depth <= guide_->settings().vertices;
+                if (guided) guide_->prepare(x, ray.d, phase, ts.neighbors, &ts.lobes);
+                const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
+                L += beta * direct_light(x, Lobe{&phase, ray.d, Color(0.0f), lobes}, rng, ts);
+                Vec3 wi;
+                if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
+                    wi = guide_->sample(ts.lobes, phase, ray.d, rng, &prev_pdf);
+                    beta *= phase.eval(glm::dot(ray.d, wi)) / prev_pdf;
+                } else {
+                    wi = phase.sample(ray.d, rng, &prev_pdf);  // weight phase/pdf = 1
+                }
                 specular = false;
                 prev_p = x;
                 ray = Ray{x, wi};
@@ -224,9 +235,9 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
     return L;
 }
 
-Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
-                 RenderStats* stats) {
-    const PathTracer tracer(scene, settings.max_depth);
+Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
+                 const VolumeGuide* guide) {
+    const PathTracer tracer(scene, settings.max_depth, guide);
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, /*layered=*/false, quiet, stats,
         [&] { return tracer.make_state(); },

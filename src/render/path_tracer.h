@@ -1,13 +1,15 @@
 #pragma once
 // Reference integrator (DESIGN.md, Media): an unbiased volumetric path tracer. Weighted delta
 // tracking finds scattering events in media; next-event estimation to every light uses residual
-// ratio-tracked transmittance (point and spot lights in media: equi-angular samples per segment); area, sun-disc and environment lights are combined with
-// phase/BSDF sampling by multiple importance sampling (power heuristic); Russian roulette once the
-// throughput falls below 1; max_depth caps the number of scattering/bounce vertices.
-// Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
+// ratio-tracked transmittance (point and spot lights in media: equi-angular samples per segment);
+// area, sun-disc and environment lights are combined with phase/BSDF sampling by multiple
+// importance sampling (power heuristic); Russian roulette once the throughput falls below 1;
+// max_depth caps the number of scattering/bounce vertices. Deterministic: pixel (x, y), sample s
+// draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
 #include "render/film.h"
+#include "render/volume_guide.h"
 #include "scene/scene.h"
 
 #include <cstdint>
@@ -17,11 +19,14 @@ namespace fogmap {
 
 class PathTracer {
 public:
-    PathTracer(const Scene& scene, int max_depth);
+    /// `guide` (may be null): scattering directions in media guided by the volume photon map.
+    PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr);
 
     /// Per-thread mutable state: medium samplers and counters. One per task.
     struct ThreadState {
         std::vector<Medium::Sampler> media;
+        NeighborList neighbors;  ///< guide photons
+        GuideLobes lobes;        ///< the guide at the current vertex
         uint64_t rays = 0;
         uint64_t capped = 0;  ///< paths cut by max_depth
     };
@@ -38,13 +43,14 @@ private:
 
     const Scene& scene_;
     int max_depth_;
+    const VolumeGuide* guide_;
     bool has_point_lights_ = false;
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
-/// settings.max_depth (the worker count is the caller's ThreadLimit). An unlayered film.
-/// Progress on stderr unless quiet.
-Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
-                 RenderStats* stats);
+/// settings.max_depth (the worker count is the caller's ThreadLimit), guided by `guide` when
+/// given. An unlayered film. Progress on stderr unless quiet.
+Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
+                 const VolumeGuide* guide = nullptr);
 
 }  // namespace fogmap

@@ -41,6 +41,13 @@ void warn(Report* report, const std::string& text) {
     report->warnings.push_back(text);
 }
 
+/// The guide's settings: its radius is the volume gather's.
+GuideSettings guide_settings(const GatherParams& gather) {
+    GuideSettings g;
+    g.radius = gather.volume.radius;
+    return g;
+}
+
 }  // namespace
 
 uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
@@ -60,6 +67,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
 
     const ThreadLimit threads(desc.render.threads);
     const bool photon = desc.render.integrator == Integrator::Photon;
+    const bool guided = desc.render.integrator == Integrator::Guided;
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
@@ -69,7 +77,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
         IterationReport it;
         it.index = i;
         RenderStats stats;
-        if (photon) {
+        if (photon || guided) {
             PhotonPassResult pass =
                 trace_photons(*scene, plan, desc.photons, desc.march, settings.seed, quiet_pass);
             if (i == 1) {
@@ -103,10 +111,17 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
             const GatherParams gather =
                 gather_at_iteration(*first_gather, i, desc.progressive.alpha);
             it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
-            double precompute_s = 0.0;
-            out.film.add(render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
-                                       &stats, &precompute_s));
-            if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
+            if (guided) {
+                std::optional<VolumeGuide> guide;
+                if (maps.volume) guide.emplace(*maps.volume, guide_settings(gather));
+                out.film.add(
+                    render_path(*scene, settings, quiet_pass, &stats, guide ? &*guide : nullptr));
+            } else {
+                double precompute_s = 0.0;
+                out.film.add(render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
+                                           &stats, &precompute_s));
+                if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
+            }
         } else {
             out.film.add(render_path(*scene, settings, quiet_pass, &stats));
         }

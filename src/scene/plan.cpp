@@ -86,6 +86,10 @@ PlanItem plan_marching(const SceneDesc& desc) {
     if (desc.render.integrator == Integrator::Path) {
         return off("integrator is path: media use delta tracking");
     }
+    if (desc.render.integrator == Integrator::Guided) {
+        return on(count(desc.media.size(), "medium", "media") +
+                  "; photon free paths march, camera paths use delta tracking");
+    }
     // march.method picks how photons find free paths; camera rays of this integrator always march.
     const char* how = "";
     switch (desc.march.method) {
@@ -140,6 +144,10 @@ Plan make_plan(const SceneDesc& desc) {
         plan.volume_map = plan.global_map = plan.caustic_map = off("integrator is path");
     } else if (!any_emits) {
         plan.volume_map = plan.global_map = plan.caustic_map = off("no light emits power");
+    } else if (desc.render.integrator == Integrator::Guided) {
+        plan.volume_map = plan_volume(desc);
+        if (plan.volume_map) plan.volume_map.reason += "; it guides scattering in media";
+        plan.global_map = plan.caustic_map = off("integrator is guided: only media are guided");
     } else {
         const size_t diffuse = count_shapes(desc, is_diffuse);
         plan.volume_map = plan_volume(desc);

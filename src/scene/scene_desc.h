@@ -84,7 +84,9 @@ struct MediumDesc {
         bounds;  ///< homogeneous: box ("bounds": {"min","max"}); absent = whole scene
 };
 
-enum class Integrator { Path, Photon };
+/// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with scattering
+/// directions in media guided by the volume photon map (unbiased).
+enum class Integrator { Path, Photon, Guided };
 
 struct RenderSettings {
     Integrator integrator = Integrator::Photon;

@@ -25,7 +25,8 @@ constexpr std::array<MaterialType, 3> kMaterialTypes{MaterialType::Diffuse, Mate
 constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, ShapeType::Sphere,
                                                ShapeType::Mesh};
 constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
-constexpr std::array<Integrator, 2> kIntegrators{Integrator::Path, Integrator::Photon};
+constexpr std::array<Integrator, 3> kIntegrators{Integrator::Path, Integrator::Photon,
+                                                Integrator::Guided};
 constexpr std::array<VolumeEstimator, 2> kVolumeEstimators{VolumeEstimator::Sphere,
                                                            VolumeEstimator::Beam};
 constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,

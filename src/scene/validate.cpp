@@ -67,6 +67,8 @@ const char* to_string(Integrator t) {
             return "path";
         case Integrator::Photon:
             return "photon";
+        case Integrator::Guided:
+            return "guided";
     }
     return "?";
 }

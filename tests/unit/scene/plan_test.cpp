@@ -197,6 +197,19 @@ TEST(Plan, PathIntegratorBuildsNoMapsAndDoesNotMarch) {
     EXPECT_EQ(line(p, kCaustic), "caustic map: skipped (integrator is path)");
 }
 
+TEST(Plan, GuidedIntegratorBuildsOnlyTheVolumeMap) {
+    json doc = glass_floor_fog();
+    doc["render"] = {{"integrator", "guided"}};
+    const Plan plan = make_plan(scene(doc));
+    EXPECT_TRUE(plan.volume_map.on);
+    EXPECT_NE(plan.volume_map.reason.find("guides scattering"), std::string::npos);
+    EXPECT_FALSE(plan.global_map.on);
+    EXPECT_FALSE(plan.caustic_map.on);
+    EXPECT_EQ(line(plan, kGlobal), "global map: skipped (integrator is guided: only media are guided)");
+    EXPECT_TRUE(plan.ray_marching.on);
+    EXPECT_NE(plan.ray_marching.reason.find("camera paths use delta tracking"), std::string::npos);
+}
+
 TEST(Plan, GlassFloorAndFogTurnEverythingOn) {
     const Plan p = make_plan(scene(glass_floor_fog()));
     EXPECT_TRUE(p.embree_scene.on);

@@ -1,0 +1,63 @@
+#pragma once
+// Path guiding in media from the volume photon map (Jensen 1995; Vorba et al. 2014; DESIGN.md,
+// Next: guiding). At a scattering vertex x of a path travelling along d, the k photons nearest to
+// x say where light arrives from: photon j came travelling along d_j, so light reaches x from
+// ω_j = −d_j. The guide is a mixture of von Mises–Fisher lobes around the ω_j, lobe j weighted by
+// the photon's power times the phase function toward it (a product with the phase, so the lobes
+// that matter for this path come first). Directions are drawn by one-sample MIS between the
+// phase function (probability `phase_fraction`) and the guide, and always weighted by
+// f / p_mix, never f / p_guide: a poor guide costs variance, never bias (with no photon near x
+// the phase function alone is used). Immutable; the lobes are per vertex (per thread).
+
+#include "core/rng.h"
+#include "media/phase.h"
+#include "photon/kd_tree.h"
+#include "photon/photon_pass.h"
+
+#include <vector>
+
+namespace fogmap {
+
+/// Measured on the Disney cloud and smoke1 over a 10 km ground (README, "Guided path tracing"):
+/// guiding every vertex multiplied path weights up to 2 per bounce (f / p_mix) and the long
+/// random walks of an albedo-0.99 cloud turned that into fireflies (relMSE 0.26 against 0.014
+/// unguided at 64 spp); guiding the first medium vertex only, with these settings, came closest
+/// to the plain path tracer without beating it.
+struct GuideSettings {
+    int k = 16;                   ///< photons per guide
+    float radius = 0.0f;          ///< world units: the largest distance of a guide photon
+    float phase_fraction = 0.8f;  ///< probability of sampling the phase function, in (0, 1]
+    float kappa = 20.0f;          ///< vMF concentration of each lobe (20: ~15° wide)
+    int vertices = 1;             ///< medium vertices guided along a path (the first ones)
+};
+
+/// One vertex's guide: lobe axes and their cumulative normalised weights.
+struct GuideLobes {
+    std::vector<Vec3> axis;
+    std::vector<float> cdf;
+    bool empty() const { return axis.empty(); }
+};
+
+class VolumeGuide {
+public:
+    VolumeGuide(const PhotonMap& map, const GuideSettings& settings);
+
+    /// The guide at x for a path travelling along unit `dir` through `phase`; empty when no photon
+    /// lies within the radius or none scatters towards the path.
+    void prepare(const Vec3& x, const Vec3& dir, const PhaseMix& phase, NeighborList& scratch,
+                 GuideLobes* lobes) const;
+    /// A direction for the path's next segment and its mixture pdf (solid angle).
+    Vec3 sample(const GuideLobes& lobes, const PhaseMix& phase, const Vec3& dir, Rng& rng,
+                float* pdf) const;
+    /// The mixture pdf of choosing direction w.
+    float pdf(const GuideLobes& lobes, const PhaseMix& phase, const Vec3& dir, const Vec3& w) const;
+    const GuideSettings& settings() const { return settings_; }
+
+private:
+    float guide_pdf(const GuideLobes& lobes, const Vec3& w) const;
+
+    const PhotonMap& map_;
+    GuideSettings settings_;
+};
+
+}  // namespace fogmap
