@@ -6,6 +6,7 @@
 // A layered film's beauty is the sum of its layers; an unlayered one holds beauty alone.
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
+#include "core/error.h"
 #include "core/image.h"
 #include "core/parallel.h"
 #include "core/rng.h"
@@ -58,7 +59,10 @@ struct Film {
     Film(int width, int height, bool layered)
         : beauty(width, height), layers(layered ? kLayerCount : 0, Image(width, height)) {}
     bool layered() const { return !layers.empty(); }
-    const Image& layer(Layer l) const { return layers[static_cast<int>(l)]; }
+    const Image& layer(Layer l) const {
+        FOGMAP_ASSERT(layered(), "an unlayered film has no layers");
+        return layers[static_cast<int>(l)];
+    }
     /// The EXR's extra layers, named (none for an unlayered film).
     std::vector<NamedImage> named_layers() const {
         std::vector<NamedImage> out;

@@ -54,7 +54,8 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
     return progressive ? mix64(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i)) : seed;
 }
 
-PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference) {
+PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference) {
+    const SceneDesc desc = choose_integrator(scene_desc);
     PipelineResult out;
     Report& report = out.report;
     const Timer timer;

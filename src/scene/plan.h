@@ -38,6 +38,9 @@ struct PlanItem {
 /// traced (the plan comes before Embree and OpenVDB are loaded); a specular surface that no
 /// light sees gets a caustic map that stays empty, which costs shooting time but is correct.
 struct Plan {
+    /// The integrator (on) and why: the scene's choice, or what auto picked.
+    PlanItem integrator;
+    const char* integrator_name = "photon";
     PlanItem embree_scene;
     PlanItem ray_marching;
     PlanItem volume_map;
@@ -45,17 +48,29 @@ struct Plan {
     PlanItem caustic_map;
 };
 
-/// The plan for `desc` (assumed validated; shapes naming unknown materials count as nothing).
-/// Never throws.
+/// What render.integrator = "auto" picks, with the measured reason (README, "Choosing an
+/// integrator"), in this order:
+/// - photon when a glass or mirror surface and a diffuse one meet a point, spot or small sun
+///   (angular radius below 1°): the caustics these cast are paths the path tracers cannot sample;
+/// - photon when a point or spot light shines in a medium (fog.json: the volume map had 4× lower
+///   error than the path tracer at equal time);
+/// - path otherwise (smoke and clouds under sun and sky: the path tracer had 2–7× lower error
+///   than the photon maps at equal time, and the guided tracer did not beat it).
+/// `desc` unchanged when its integrator is not auto; else a copy with the choice and its reason
+/// (render.auto_reason). Never throws.
+SceneDesc choose_integrator(SceneDesc desc);
+
+/// The plan for `desc` (assumed validated; shapes naming unknown materials count as nothing),
+/// after choose_integrator. Never throws.
 Plan make_plan(const SceneDesc& desc);
 
-/// Five lines, each ending in '\n', in pipeline order: "Embree scene: built (2 shapes)",
-/// "ray marching: used (...)", "volume map: built (...)", "global map: ...",
-/// "caustic map: skipped (no specular surface)".
+/// Six lines, each ending in '\n', in pipeline order: "integrator: path (scene)",
+/// "Embree scene: built (2 shapes)", "ray marching: used (...)", "volume map: built (...)",
+/// "global map: ...", "caustic map: skipped (no specular surface)".
 std::string plan_text(const Plan& plan);
 
-/// {"embree_scene": {"on": true, "reason": "..."}, "ray_marching": ..., "volume_map": ...,
-/// "global_map": ..., "caustic_map": ...} for the report's JSON output.
+/// {"integrator": {"on": true, "reason": "..."}, "embree_scene": ..., "ray_marching": ...,
+/// "volume_map": ..., "global_map": ..., "caustic_map": ...} for the report's JSON output.
 nlohmann::json plan_json(const Plan& plan);
 
 }  // namespace fogmap

@@ -85,11 +85,14 @@ struct MediumDesc {
 };
 
 /// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with scattering
-/// directions in media guided by the volume photon map (unbiased).
-enum class Integrator { Path, Photon, Guided };
+/// directions in media guided by the volume photon map (unbiased); auto: the Plan picks one of them
+/// for the scene (scene/plan.h, choose_integrator).
+enum class Integrator { Path, Photon, Guided, Auto };
 
 struct RenderSettings {
-    Integrator integrator = Integrator::Photon;
+    Integrator integrator = Integrator::Auto;
+    /// Not a scene key: why the integrator was chosen when the scene asked for auto.
+    std::string auto_reason;
     int spp = 16;        ///< samples per pixel, >= 1
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it

@@ -3,6 +3,7 @@
 #include "core/error.h"
 #include "core/input_file.h"
 #include "scene/json_reader.h"
+#include "scene/plan.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -25,8 +26,8 @@ constexpr std::array<MaterialType, 3> kMaterialTypes{MaterialType::Diffuse, Mate
 constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, ShapeType::Sphere,
                                                ShapeType::Mesh};
 constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
-constexpr std::array<Integrator, 3> kIntegrators{Integrator::Path, Integrator::Photon,
-                                                Integrator::Guided};
+constexpr std::array<Integrator, 4> kIntegrators{Integrator::Auto, Integrator::Path,
+                                                Integrator::Photon, Integrator::Guided};
 constexpr std::array<VolumeEstimator, 2> kVolumeEstimators{VolumeEstimator::Sphere,
                                                            VolumeEstimator::Beam};
 constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
@@ -551,7 +552,7 @@ SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string
     try {
         SceneDesc desc = scene_desc_from_json(doc, path);
         validate(desc);
-        return desc;
+        return choose_integrator(std::move(desc));  // auto resolved once, for every stage
     } catch (const InputError& e) {
         // A bad value that came from the command line says so, with the assignment.
         for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {

@@ -13,7 +13,8 @@
 namespace fogmap {
 
 /// Reads `path`, applies overrides ("render.spp=64", "lights.0.intensity=[1,2,3]": the value is
-/// JSON if it parses as JSON, else a string), converts and validates.
+/// JSON if it parses as JSON, else a string), converts, validates and resolves render.integrator
+/// "auto" (scene/plan.h, choose_integrator).
 /// Throws InputError{path, field, reason}; JSON syntax errors give line and column.
 SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides = {});
 

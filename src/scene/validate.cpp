@@ -69,6 +69,8 @@ const char* to_string(Integrator t) {
             return "photon";
         case Integrator::Guided:
             return "guided";
+        case Integrator::Auto:
+            return "auto";
     }
     return "?";
 }
@@ -486,7 +488,8 @@ void check_progressive(const SceneDesc& desc) {
     k.int_range("iterations", p.iterations, 0, 1000000);
     k.non_negative("time_budget", p.time_budget);
     k.range("alpha", p.alpha, 0.0f, 1.0f, true);
-    if (p.enabled() && desc.render.integrator != Integrator::Photon)
+    if (p.enabled() && desc.render.integrator != Integrator::Photon &&
+        desc.render.integrator != Integrator::Auto)
         k.fail("", "progressive photon mapping needs render.integrator \"photon\"; found \"" +
                        std::string(to_string(desc.render.integrator)) + "\"");
 }

@@ -68,7 +68,7 @@ protected:
           "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10],
                       "edge_v": [10, 0, 0], "material": "ground"}],
           "photons": {"global": 100, "caustic": 0, "volume": 100},
-          "render": {"spp": 1}
+          "render": {"integrator": "photon", "spp": 1}
         })");
         doc.merge_patch(patch);
         return tmp_.write(name, doc.dump(2));

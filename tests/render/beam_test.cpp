@@ -16,6 +16,7 @@ namespace {
 
 SceneDesc lit_medium(const MediumDesc& medium) {
     SceneDesc d;
+    d.render.integrator = Integrator::Photon;  // the photon map's estimators are under test
     d.lights.push_back(test::sun(Vec3(0.4f, -1.0f, 0.3f), 3.0f));
     d.media.push_back(medium);
     d.camera.position = Vec3(0.2f, 0.3f, 4.0f);

@@ -34,6 +34,7 @@ SceneDesc plane_under_fog() {
     d.camera.width = 16;
     d.camera.height = 12;
     d.render.spp = 2;
+    d.render.integrator = Integrator::Photon;  // its direct layer is under test
     d.photons.global = d.photons.caustic = d.photons.volume = 0;
     return d;
 }

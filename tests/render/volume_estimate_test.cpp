@@ -17,6 +17,7 @@ constexpr float kSigmaS = 0.8f, kSigmaA = 0.2f, kG = 0.3f, kRadius = 0.35f;
 
 SceneDesc cube_under_sky() {
     SceneDesc d;
+    d.render.integrator = Integrator::Photon;  // the volume map is what this test checks
     d.lights.push_back(test::environment(1.0f));
     d.media.push_back(
         test::homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(kSigmaS), Color(kSigmaA), kG));

@@ -162,7 +162,7 @@ protected:
              "sigma_s": 0.8, "sigma_a": 0.1, "g": 0.2}],
   "photons": {"global": 200, "caustic": 0, "volume": 300},
   "march": {"step_world": 0.1},
-  "render": {"spp": 2, "max_depth": 8, "threads": 1}
+  "render": {"integrator": "photon", "spp": 2, "max_depth": 8, "threads": 1}
 })";
     }
 

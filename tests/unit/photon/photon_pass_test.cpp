@@ -19,6 +19,12 @@ namespace {
 
 using namespace test;
 
+/// The description with the photon integrator: the photon pass is what these tests are about.
+SceneDesc photon(SceneDesc d) {
+    d.render.integrator = Integrator::Photon;
+    return d;
+}
+
 MediumDesc fog_box() {
     return homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(1.0f), Color(0.1f));
 }
@@ -28,6 +34,7 @@ TEST(PhotonPass, MapsThePlanLeavesOutAreNeverAllocated) {
     d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), 2.0f));
     d.media.push_back(fog_box());
     d.photons.volume = 1000;
+    d.render.integrator = Integrator::Photon;
     const Plan plan = make_plan(d);
     const auto scene = load_scene(d);
     ASSERT_FALSE(plan.global_map.on);
@@ -58,6 +65,7 @@ TEST(PhotonPass, OneAndTwoThreadsStoreIdenticalPhotons) {
     d.photons.volume = 20000;
     d.photons.global = 5000;
     const auto scene = load_scene(d);
+    d.render.integrator = Integrator::Photon;
     const Plan plan = make_plan(d);
     PhotonPassResult one, two;
     {
@@ -88,7 +96,7 @@ TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
     d.photons.global = 100;
     d.photons.max_emitted = 50000;
     const PhotonPassResult r =
-        trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
+        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
     EXPECT_EQ(r.emitted, 50000u);
     ASSERT_TRUE(r.global.has_value());
     EXPECT_EQ(r.global->photons.size(), 0u);
@@ -118,7 +126,7 @@ TEST(PhotonPass, BounceCapCountsEveryPathItCuts) {
     d.photons.max_emitted = 200000;
     d.march.method = FreePathMethod::Delta;
     const PhotonPassResult r =
-        trace_photons(*load_scene(d), make_plan(d), d.photons, d.march, d.render.seed, true);
+        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
     ASSERT_EQ(r.emitted, 200000u);
     double expected = 0.0;
     const int n = 200000;
@@ -161,7 +169,7 @@ TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
         d.photons.caustic = n;
         const auto scene = load_scene(d);
         PhotonMaps maps = build_trees(
-            trace_photons(*scene, make_plan(d), d.photons, d.march, d.render.seed, true));
+            trace_photons(*scene, make_plan(photon(d)), d.photons, d.march, d.render.seed, true));
         ASSERT_TRUE(maps.caustic.has_value());
         NeighborList scratch;
         double error = 0.0, sum = 0.0;

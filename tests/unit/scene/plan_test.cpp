@@ -13,8 +13,11 @@ namespace {
 
 using nlohmann::json;
 
-/// A validated description from scene-file text (no file is opened: the plan needs none).
-SceneDesc scene(const json& doc) {
+/// A validated description from scene-file text (no file is opened: the plan needs none). The
+/// map rules below are the photon integrator's: a scene that names no integrator gets "photon".
+SceneDesc scene(json doc) {
+    if (!doc.contains("render") || !doc["render"].contains("integrator"))
+        doc["render"]["integrator"] = "photon";
     SceneDesc desc = scene_desc_from_json(doc, "scene.json");
     validate(desc);
     return desc;
@@ -51,11 +54,12 @@ std::vector<std::string> lines(const std::string& text) {
     return out;
 }
 
-/// plan_text's line for one item; the order is fixed: Embree, marching, volume, global, caustic.
-enum Line { kEmbree = 0, kMarching, kVolume, kGlobal, kCaustic };
+/// plan_text's line for one item; the order is fixed: integrator, Embree, marching, volume,
+/// global, caustic.
+enum Line { kIntegrator = 0, kEmbree, kMarching, kVolume, kGlobal, kCaustic };
 std::string line(const Plan& plan, Line which) {
     const std::vector<std::string> all = lines(plan_text(plan));
-    return all.size() == 5 ? all[size_t(which)] : "plan_text has " + std::to_string(all.size());
+    return all.size() == 6 ? all[size_t(which)] : "plan_text has " + std::to_string(all.size());
 }
 
 TEST(Plan, SmokeOnlyHasNoSurfaceMapsAndNoEmbreeScene) {
@@ -205,7 +209,8 @@ TEST(Plan, GuidedIntegratorBuildsOnlyTheVolumeMap) {
     EXPECT_NE(plan.volume_map.reason.find("guides scattering"), std::string::npos);
     EXPECT_FALSE(plan.global_map.on);
     EXPECT_FALSE(plan.caustic_map.on);
-    EXPECT_EQ(line(plan, kGlobal), "global map: skipped (integrator is guided: only media are guided)");
+    EXPECT_EQ(line(plan, kGlobal),
+              "global map: skipped (integrator is guided: only media are guided)");
     EXPECT_TRUE(plan.ray_marching.on);
     EXPECT_NE(plan.ray_marching.reason.find("camera paths use delta tracking"), std::string::npos);
 }
@@ -218,6 +223,7 @@ TEST(Plan, GlassFloorAndFogTurnEverythingOn) {
     EXPECT_TRUE(p.global_map.on);
     EXPECT_TRUE(p.caustic_map.on);
     EXPECT_EQ(plan_text(p),
+              "integrator: photon (scene)\n"
               "Embree scene: built (2 shapes)\n"
               "ray marching: used (1 medium; camera rays and photon free paths march)\n"
               "volume map: built (1 scattering medium, budget 100000 photons)\n"
@@ -248,10 +254,47 @@ TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
     EXPECT_EQ(line(make_plan(scene(doc)), kEmbree), "Embree scene: built (2 shapes, 1 quad light)");
 }
 
+// render.integrator = "auto" picks by the measured rules (plan.h, choose_integrator): caustics
+// from small lights → photon; a point or spot light in a medium → photon; media under sun and
+// sky → path; a scene that names an integrator keeps it. The plan's first line says which and why.
+TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
+    auto pick = [](json doc) {
+        doc["render"]["integrator"] = "auto";
+        SceneDesc d = scene_desc_from_json(doc, "scene.json");
+        validate(d);
+        return make_plan(d);
+    };
+    const Plan caustics = pick(glass_floor_fog());  // glass, floor, point light (and fog)
+    EXPECT_EQ(std::string(caustics.integrator_name), "photon");
+    EXPECT_NE(caustics.integrator.reason.find("caustics"), std::string::npos);
+    EXPECT_TRUE(caustics.caustic_map.on);
+
+    const Plan fog = pick(smoke_only());  // a point light and a medium
+    EXPECT_EQ(std::string(fog.integrator_name), "photon");
+    EXPECT_NE(fog.integrator.reason.find("point or spot light in a medium"), std::string::npos);
+
+    json sunlit = smoke_only();
+    sunlit["lights"] = json::parse(R"([{"type": "sun", "direction": [0, -1, 0], "irradiance": 3,
+                                        "angular_radius_deg": 0.27},
+                                       {"type": "environment", "radiance": 0.2}])");
+    const Plan smoke = pick(sunlit);
+    EXPECT_EQ(std::string(smoke.integrator_name), "path");
+    EXPECT_FALSE(smoke.volume_map.on);
+    EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: path (auto: media under sun", 0), 0u)
+        << line(smoke, kIntegrator);
+
+    json named = sunlit;
+    named["render"]["integrator"] = "photon";
+    SceneDesc d = scene_desc_from_json(named, "scene.json");
+    validate(d);
+    EXPECT_EQ(line(make_plan(d), kIntegrator), "integrator: photon (scene)");
+}
+
 TEST(Plan, JsonHasOneEntryPerItem) {
     const Plan p = make_plan(scene(smoke_only()));
     const json j = plan_json(p);
     EXPECT_EQ(j, json::parse(R"({
+      "integrator": {"name": "photon", "reason": "scene"},
       "embree_scene": {"on": false, "reason": "no surfaces"},
       "ray_marching": {"on": true, "reason": "1 medium; camera rays and photon free paths march"},
       "volume_map": {"on": true, "reason": "1 scattering medium, budget 100000 photons"},

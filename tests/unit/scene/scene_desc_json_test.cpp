@@ -309,11 +309,11 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
 
     const InputError integrator = parse_error(json::parse(R"({"render": {"integrator": 1}})"));
     EXPECT_EQ(integrator.field, "/render/integrator");
-    EXPECT_EQ(integrator.reason, "expected one of: path, photon, guided (integrator), found number 1");
+    EXPECT_EQ(integrator.reason, "expected one of: auto, path, photon, guided (integrator), found number 1");
 
     const InputError path = parse_error(json::parse(R"({"render": {"integrator": "bdpt"}})"));
     EXPECT_EQ(path.field, "/render/integrator");
-    EXPECT_EQ(path.reason, "unknown integrator 'bdpt'; expected one of: path, photon, guided");
+    EXPECT_EQ(path.reason, "unknown integrator 'bdpt'; expected one of: auto, path, photon, guided");
 
     const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "cone"}})"));
     EXPECT_EQ(estimator.field, "/volume/estimator");
@@ -324,9 +324,9 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
     EXPECT_EQ(method.reason, "unknown free path method 'ratio'; expected one of: march, delta");
 }
 
-TEST(SceneDescJson, NewSettingsDefaultToThePhotonIntegrator) {
+TEST(SceneDescJson, NewSettingsDefaultToTheAutoIntegrator) {
     const SceneDesc d = scene_desc_from_json(json::object(), "scene.json");
-    EXPECT_EQ(d.render.integrator, Integrator::Photon);
+    EXPECT_EQ(d.render.integrator, Integrator::Auto);
     EXPECT_EQ(d.march.method, FreePathMethod::March);
     EXPECT_NO_THROW(validate(d));
     // Each enum value reads back from its own name.
@@ -351,7 +351,7 @@ TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
 
     // Defaults are written too (the report shows what ran, not what the file said).
     const json defaults = settings_json(SceneDesc{});
-    EXPECT_EQ(defaults["render"]["integrator"], "photon");
+    EXPECT_EQ(defaults["render"]["integrator"], "auto");
     EXPECT_EQ(defaults["photons"]["volume"], 100000);
     EXPECT_EQ(defaults["global"]["final_gather"], false);
     EXPECT_EQ(defaults["caustic"]["cone_filter"], 0.0);
