@@ -235,6 +235,12 @@ int run_bench(const BenchArgs& args) {
         overrides.insert(overrides.end(), assignment.begin(), assignment.end());
         try {
             runs.push_back(load_scene_desc(args.scene, overrides));  // the normal checks
+            // The sweep measures the photon maps, the path tracer runs beside it (--path-spp):
+            // a run that leaves the integrator to auto uses the photon integrator.
+            if (!runs.back().render.auto_reason.empty()) {
+                runs.back().render.integrator = Integrator::Photon;
+                runs.back().render.auto_reason.clear();
+            }
             runs.back().render.threads = std::min(runs.back().render.threads, thread_count(0));
         } catch (const InputError& e) {
             // Name the --sweep a bad value came from rather than the --set it was applied as.
@@ -357,7 +363,9 @@ Subcommand add_bench_command(CLI::App& app) {
     sub->add_option("--reference-spp", args->reference_spp,
                     "render a path-traced reference at N spp, cached beside the CSV as "
                     "<scene>_ref_path<N>spp_<FNV-1a of its scene JSON>.exr");
-    sub->add_option("--sweep", args->sweeps, "KEY=V1,V2,...: a setting and its values")
+    sub->add_option("--sweep", args->sweeps,
+                    "KEY=V1,V2,...: a setting and its values (photon integrator unless the "
+                    "scene or --set names one)")
         ->expected(1)
         ->take_all();
     sub->add_option("--csv", args->csv, "output .csv, one row per run")->required();

@@ -256,6 +256,27 @@ TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
     EXPECT_LT(rel_mse[2], 0.5 * rel_mse[1]);
 }
 
+TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
+    // Without render.integrator the scene resolves to the path tracer (a sun over a medium);
+    // the swept runs still measure the photon maps, as the bench's summary says they do.
+    std::string scene = slurp(dir_ / "tiny.json");
+    const std::string named = R"("integrator": "photon", )";
+    ASSERT_NE(scene.find(named), std::string::npos);
+    scene.erase(scene.find(named), named.size());
+    std::ofstream(dir_ / "tiny.json") << scene;
+    const RunResult r = run("--reference-spp 4 --sweep photons.volume=300 --path-spp 1" + outputs());
+    ASSERT_EQ(r.code, 0) << r.err;
+    const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
+    ASSERT_EQ(lines.size(), 4u);  // header, the swept run, the path run, ""
+    const std::vector<std::string> header = split(lines[0], ',');
+    const size_t stored = static_cast<size_t>(
+        std::find(header.begin(), header.end(), "stored_volume") - header.begin());
+    ASSERT_LT(stored, header.size());
+    EXPECT_EQ(split(lines[1], ',')[0], "photon");
+    EXPECT_GE(std::stoi(split(lines[1], ',')[stored]), 300);
+    EXPECT_EQ(split(lines[2], ',')[0], "path");
+}
+
 TEST_F(BenchCommand, SceneNamedWithoutAFolderCachesItsReference) {
     // `fogmap bench tiny.json` from the scene's own folder: the reference's cache name hashes
     // the absolute folder, which must not fail for the empty folder of a bare file name.
