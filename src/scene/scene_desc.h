@@ -133,12 +133,14 @@ struct CausticGatherSettings {
 /// spheres (Jarosz, Zwicker, Jensen 2008).
 enum class VolumeEstimator { Sphere, Beam };
 
-/// Volume map: spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates), or the
-/// beam estimate with per-photon radii (the k-th neighbour's distance, at most `radius`).
+/// Volume map: the beam estimate with per-photon radii (the k-th neighbour's distance, at most
+/// `radius`), or the spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates). The
+/// beam is the default: the sphere blurs photons from inside a dense medium onto the camera's side
+/// of its edge, where the transmittance is higher (the bundled cloud: +15% in the medium).
 struct VolumeGatherSettings {
     int k = 50;
     float radius = 0.0f;  ///< max radius, world units; 0 = 5% of the media diagonal
-    VolumeEstimator estimator = VolumeEstimator::Sphere;
+    VolumeEstimator estimator = VolumeEstimator::Beam;
     /// Volume-map lookups per camera ray: at steps drawn by stratified importance sampling of
     /// the march's weights and reweighted, so the march sum stays unbiased; 0 = every step.
     int lookups_per_ray = 8;

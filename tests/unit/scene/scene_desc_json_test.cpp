@@ -355,7 +355,7 @@ TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
     EXPECT_EQ(defaults["photons"]["volume"], 100000);
     EXPECT_EQ(defaults["global"]["final_gather"], false);
     EXPECT_EQ(defaults["caustic"]["cone_filter"], 0.0);
-    EXPECT_EQ(defaults["volume"]["estimator"], "sphere");
+    EXPECT_EQ(defaults["volume"]["estimator"], "beam");
     EXPECT_EQ(defaults["march"]["method"], "march");
     EXPECT_EQ(defaults["march"]["step_voxels"], 1.0);
 }
