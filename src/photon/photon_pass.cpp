@@ -41,9 +41,15 @@ PhotonTracer::PhotonTracer(const Scene& scene, const MarchSettings& march, int m
 
 TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                std::vector<Medium::Sampler>& samplers, uint32_t index,
-                               std::vector<TaggedPhoton>* out) const {
+                               std::vector<TaggedPhoton>* out, PhotonSource source) const {
     const Scene& scene = scene_;
-    const std::array<bool, 3>& store = store_;
+    // A bounce-stream photon has had its interaction (the surface it leaves) and stores volume
+    // photons only; a sun or sky path whose next segment after a first, diffuse, interaction
+    // belongs to the bounce stream stores no volume photons (photon/streams.h).
+    const bool bounce = source == PhotonSource::Bounce;
+    const std::array<bool, 3> store =
+        bounce ? std::array<bool, 3>{false, false, store_[kVolume]} : store_;
+    bool owned = false;
     auto deposit = [&](int map, const Photon& photon) {
         out->push_back({index, static_cast<PhotonMapId>(map), photon});
     };
@@ -54,7 +60,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     bool specular_chain = true;  // every interaction so far was specular
     const bool has_media = !samplers.empty();
     const int max_bounces = max_bounces_;
-    for (int depth = 0; depth < max_bounces; ++depth) {
+    for (int depth = bounce ? 1 : 0; depth < max_bounces; ++depth) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
         if (scene.surfaces) {
@@ -80,7 +86,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                      (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
                     if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
                     power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
-                    if (depth > 0 && store[kVolume]) deposit(kVolume, Photon(x, ray.d, power));
+                    if (depth > 0 && store[kVolume] && !owned) deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             } else {
@@ -90,7 +96,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                 if (tr.event == TrackEvent::Absorbed) return ended(PathEnd::Absorbed, depth + 1);
                 if (tr.event == TrackEvent::Scattered) {
                     x = ray.at(tr.t);
-                    if (depth > 0 && store[kVolume]) deposit(kVolume, Photon(x, ray.d, power));
+                    if (depth > 0 && store[kVolume] && !owned) deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             }
@@ -132,6 +138,10 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
         ray = Ray{offset_point(hit->p, n, scene.offset_floor),
                   sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
         specular_chain = false;
+        if (depth == 0 && bounce_owner_ && source == PhotonSource::SunOrSky) {
+            uint64_t rays = 0;
+            owned = bounce_owner_->owns_bounce(scene, ray, &rays);
+        }
     }
     return ended(PathEnd::BounceCap, max_bounces);
 }
@@ -186,6 +196,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     }
     const size_t n_streams = set.streams.size();
     PhotonTracer tracer(scene, march, settings.max_bounces);
+    tracer.set_bounce_owner(&set);
     std::array<bool, 3> open;  // maps still taking photons
     for (int m = 0; m < 3; ++m) open[m] = maps[m] && maps[m]->budget > 0;
     tracer.set_store(open);
@@ -224,12 +235,19 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                 for (uint64_t i = job.begin; i < job.end; ++i) {
                     Rng rng(seed, i, st.key);
                     Ray ray;
-                    if (!sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
+                    Color power = st.color;
+                    const bool bounce = static_cast<int>(job.stream) == set.bounce;
+                    if (bounce ? !sample_bounce(set, set.bounce, scene, samplers, rng, &ray, &power)
+                               : !sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
                         continue;
+                    const PhotonSource source =
+                        bounce ? PhotonSource::Bounce
+                        : scene.lights[st.light].is_infinite() ? PhotonSource::SunOrSky
+                                                               : PhotonSource::LocalLight;
                     ++o.accepted;
                     const TracedPath path =
-                        tracer.trace(ray, st.color, rng, samplers,
-                                     static_cast<uint32_t>(i - job.begin), &o.photons);
+                        tracer.trace(ray, power, rng, samplers,
+                                     static_cast<uint32_t>(i - job.begin), &o.photons, source);
                     o.met_media += path.met_media ? 1 : 0;
                     o.interactions += static_cast<uint64_t>(path.interactions);
                     o.longest = std::max<uint64_t>(o.longest, path.interactions);

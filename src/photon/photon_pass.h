@@ -17,6 +17,7 @@
 #include "media/ray_march.h"
 #include "photon/kd_tree.h"
 #include "photon/photon.h"
+#include "photon/streams.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 
@@ -76,6 +77,10 @@ struct TaggedPhoton {
     Photon photon;
 };
 
+/// Where a photon starts: a light whose paths the bounce stream may own (sun, sky), another
+/// light, or the bounce stream (photon/streams.h).
+enum class PhotonSource : uint8_t { SunOrSky, LocalLight, Bounce };
+
 /// How a photon path ended.
 enum class PathEnd {
     Escaped,    ///< left the scene: no surface ahead and no collision in the media
@@ -101,12 +106,17 @@ public:
 
     /// Which maps take photons (global, caustic, volume); none by default. Not during trace().
     void set_store(const std::array<bool, 3>& store) { store_ = store; }
+    /// The streams whose bounce stream (if any) owns some of the light paths' volume photons
+    /// (photon/streams.h); none by default. Not during trace(); `set` must outlive the tracer.
+    void set_bounce_owner(const StreamSet* set) { bounce_owner_ = set; }
 
     /// Follows a photon leaving along `ray` (unit direction) with relative `power`, drawing only
     /// from `rng`. Photons the maps take are appended to *out, tagged with `index`; out may be
     /// null when no map takes photons. `samplers`: one per medium of the scene, this thread's.
+    /// A Bounce photon leaves a diffuse surface and stores volume photons only.
     TracedPath trace(Ray ray, Color power, Rng& rng, std::vector<Medium::Sampler>& samplers,
-                     uint32_t index, std::vector<TaggedPhoton>* out) const;
+                     uint32_t index, std::vector<TaggedPhoton>* out,
+                     PhotonSource source = PhotonSource::LocalLight) const;
 
     const RayMarcher& marcher() const { return marcher_; }
 
@@ -117,6 +127,7 @@ private:
     FreePathMethod method_;
     int max_bounces_;
     std::array<bool, 3> store_{false, false, false};
+    const StreamSet* bounce_owner_ = nullptr;
 };
 
 /// A built map: its kd-tree and the world power of a photon whose relative power is 1.

@@ -1,7 +1,9 @@
 #include "photon/streams.h"
 
 #include "core/sampling.h"
+#include "scene/shadow.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fogmap {
@@ -47,7 +49,77 @@ bool sphere_within(const StreamTarget& a, const StreamTarget& b) {  // a inside 
     return glm::length(a.center - b.center) + a.radius <= b.radius;
 }
 
+/// The bounce stream (streams.h), when the scene has media, a diffuse surface and a sun or sky.
+/// Its region power is 4π · π R² · L_ref, L_ref a scale of the radiance a lit diffuse surface
+/// reflects (the sun's and sky's irradiance × the largest albedo / π); each photon carries its
+/// own radiance / L_ref, so the scale only balances the allocation between streams.
+void add_bounce_stream(const Scene& scene, StreamSet* set) {
+    int media = -1;
+    for (size_t k = 0; k < set->targets.size(); ++k)
+        if (set->targets[k].name == "media") media = static_cast<int>(k);
+    if (media < 0 || set->streams.empty() || !scene.surfaces) return;
+    float albedo = 0.0f;
+    for (const Material& m : scene.materials)
+        if (!m.is_specular()) albedo = std::max(albedo, average(m.albedo));
+    const StreamTarget& t = set->targets[media];
+    double irradiance = 0.0;
+    for (const Light& l : scene.lights)
+        irradiance += l.type == LightType::Sun           ? average(l.irradiance)
+                      : l.type == LightType::Environment ? kPi * average(l.radiance)
+                                                         : 0.0;
+    const double radiance = irradiance * albedo * kInvPi;
+    if (!(radiance > 0.0)) return;
+    PhotonStream s;
+    s.light = -1;
+    s.target = media;
+    s.region_power = 4.0 * kPi * kPi * double(t.radius) * t.radius * radiance;
+    s.key = mix64(0x424f554e4345ull);
+    s.name = "diffuse bounce → media";
+    set->bounce = static_cast<int>(set->streams.size());
+    set->streams.push_back(s);
+}
+
+/// Where a line along unit d crosses the disc across d through the target's centre: the distance
+/// from o along d, or -1 when it passes outside the disc or the disc lies behind o.
+float disc_distance(const Vec3& o, const Vec3& d, const StreamTarget& t) {
+    const DVec3 oc = DVec3(t.center) - DVec3(o), dd = DVec3(d);
+    const double along = glm::dot(oc, dd);
+    const DVec3 perp = oc - along * dd;
+    return along > 0.0 && glm::dot(perp, perp) < double(t.radius) * t.radius ? float(along)
+                                                                              : -1.0f;
+}
+
 }  // namespace
+
+bool StreamSet::owns_bounce(const Scene& scene, const Ray& ray, uint64_t* rays) const {
+    if (bounce < 0) return false;
+    const float t = disc_distance(ray.o, ray.d, targets[streams[bounce].target]);
+    if (t < 0.0f) return false;
+    ++*rays;
+    return !scene.surfaces->occluded(ray, 0.0f, t);
+}
+
+bool sample_bounce(const StreamSet& set, int s, const Scene& scene,
+                   std::vector<Medium::Sampler>& media, Rng& rng, Ray* ray, Color* power) {
+    const PhotonStream& st = set.streams[s];
+    const StreamTarget& t = set.targets[st.target];
+    const Vec2 u(rng.uniform(), rng.uniform()), v(rng.uniform(), rng.uniform());
+    const Vec3 d = sample_uniform_sphere(u);
+    const float rad = t.radius * std::sqrt(v.x), phi = kTwoPi * v.y;
+    const Vec3 p = t.center + to_world(Vec3(rad * std::cos(phi), rad * std::sin(phi), 0.0f), d);
+    const std::optional<SurfaceHit> hit = scene.surfaces->intersect(Ray{p, -d}, 0.0f, kInfinity);
+    if (!hit || hit->material < 0) return false;
+    const Material& m = scene.materials[hit->material];
+    if (m.is_specular()) return false;
+    const Vec3 n = glm::dot(d, hit->ng) > 0.0f ? hit->ng : -hit->ng;  // the side it leaves from
+    uint64_t rays = 0;
+    const Color L = direct_diffuse(scene, media, hit->p, n, m.albedo, rng, &rays, true);
+    if (!(max_component(L) > 0.0f)) return false;
+    const double scale = st.region_power / (4.0 * kPi * kPi * double(t.radius) * t.radius);
+    *ray = Ray{offset_point(hit->p, n, scene.offset_floor), d};
+    *power = L / static_cast<float>(scale);
+    return true;
+}
 
 // The distance from the centre to the line is taken from the perpendicular vector, not as
 // |oc|² − along²: rays start outside the scene's sphere, kilometres away over a 10 km ground, and
@@ -152,6 +224,7 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
         if (covered || in_any) continue;
         add(-1, is_infinite(l) ? disc_power(world.radius) : cone_power(whole));
     }
+    add_bounce_stream(scene, &set);
     return set;
 }
 

@@ -3,7 +3,7 @@
 #include "core/sampling.h"
 #include "media/phase.h"
 #include "render/camera.h"
-#include "render/shadow.h"
+#include "scene/shadow.h"
 
 #include <optional>
 

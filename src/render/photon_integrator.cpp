@@ -4,7 +4,7 @@
 #include "core/timer.h"
 #include "photon/estimators.h"
 #include "render/camera.h"
-#include "render/shadow.h"
+#include "scene/shadow.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -84,30 +84,6 @@ PhotonIntegrator::ThreadState PhotonIntegrator::make_state() const {
     return ts;
 }
 
-Color PhotonIntegrator::direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
-                                       ThreadState& ts) const {
-    const Vec3 origin = offset_point(p, n, scene_.offset_floor);
-    Color sum(0.0f);
-    for (const Light& light : scene_.lights) {
-        const Vec2 u(rng.uniform(), rng.uniform());
-        LightSample s;
-        if (light.type == LightType::Environment) {
-            // A constant sky seen from a surface: cosine sampling matches the integrand.
-            s.wi = sample_cosine_hemisphere(n, u);
-            s.Li = light.radiance;
-            s.pdf = std::max(glm::dot(n, s.wi), 0.0f) * kInvPi;
-        } else {
-            s = sample_light(light, origin, u);
-        }
-        const float cos = glm::dot(n, s.wi);
-        if (s.pdf <= 0.0f || cos <= 0.0f || max_component(s.Li) <= 0.0f) continue;
-        const Color T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi},
-                                             s.dist * (1.0f - 1e-4f), rng, &ts.rays);
-        sum += s.Li * T * (cos / s.pdf);
-    }
-    return albedo * kInvPi * sum;
-}
-
 Color PhotonIntegrator::global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const {
     if (irradiance_) {
         irradiance_->tree.knn(p, 8, gather_.global.radius, &ts.neighbors);
@@ -142,7 +118,7 @@ Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
         const Material& mat = scene_.materials[hit->material];
         if (mat.type != MaterialType::Diffuse) continue;  // gather stops at specular surfaces
         const Vec3 n2 = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
-        Color L2 = direct_surface(hit->p, n2, mat.albedo, rng, ts) +
+        Color L2 = direct_diffuse(scene_, ts.media, hit->p, n2, mat.albedo, rng, &ts.rays) +
                    mat.albedo * kInvPi * global_irradiance(hit->p, n2, ts);
         if (!ts.media.empty()) L2 *= ratio_track(ts.media, ray, hit->t, rng);
         sum += L2;
@@ -190,7 +166,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             continue;
         }
         const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
-        out[Layer::Direct] += beta * direct_surface(hit->p, n, mat.albedo, rng, ts);
+        out[Layer::Direct] += beta * direct_diffuse(scene_, ts.media, hit->p, n, mat.albedo, rng, &ts.rays);
         if (maps_.caustic)
             out[Layer::Caustic] +=
                 beta * mat.albedo * kInvPi *

@@ -41,8 +41,6 @@ public:
 
 private:
     struct Irradiance;
-    Color direct_surface(const Vec3& p, const Vec3& n, const Color& albedo, Rng& rng,
-                         ThreadState& ts) const;
     Color final_gather(const Vec3& p, const Vec3& n, Rng& rng, ThreadState& ts) const;
     Color global_irradiance(const Vec3& p, const Vec3& n, ThreadState& ts) const;
 

@@ -2,7 +2,7 @@
 
 #include "media/phase.h"
 #include "photon/estimators.h"
-#include "render/shadow.h"
+#include "scene/shadow.h"
 
 #include <algorithm>
 #include <cmath>

@@ -315,6 +315,32 @@ TEST(PhotonStreams, PartitionCarriesEachLightsPowerIntoAnySphere) { check_partit
 
 TEST(PhotonStreams, PartitionHoldsOverATenKilometreGround) { check_partition(10000.0f); }
 
+// The light a wide ground reflects into a medium: a thin box (optical thickness 0.005) 1 m over a
+// 10 km Lambertian ground under a sun. What the volume map holds is ∫ σ_s φ dV over its stored
+// (not first) scatterings, here the ground's light to O(τ): σ_s V 2π L_g, L_g = ρ E cos θ / π the
+// ground's radiance seen from below. Before the bounce stream, the rest stream carried that light
+// in photons of 10⁵× the power of the others, and a 100 000-photon map held a few or none.
+TEST(PhotonStreams, GroundLightReachesAThinMediumThroughTheBounceStream) {
+    SceneDesc d;
+    const Vec3 dir(0.3f, -1.0f, 0.2f);
+    const float E = 2.0f, albedo = 0.5f, sigma_s = 0.005f;
+    d.lights.push_back(sun(dir, E));
+    add_ground(&d, 0.0f, 5000.0f, albedo);
+    d.media.push_back(homogeneous(Box3{Vec3(-0.5f, 1.0f, -0.5f), Vec3(0.5f, 2.0f, 0.5f)},
+                                  Color(sigma_s), Color(0.0f)));
+    d.photons.global = d.photons.caustic = 0;
+    d.photons.volume = 100000;
+    const PhotonPassResult r =
+        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+    ASSERT_TRUE(r.volume);
+    double total = 0.0;
+    for (const Photon& p : r.volume->photons) total += average(p.power());
+    total *= r.volume->photon_power;
+    const double cos_theta = 1.0 / glm::length(dir);
+    const double expected = sigma_s * 1.0 * 2.0 * kPi * (albedo * E * cos_theta / kPi);
+    EXPECT_NEAR(total, expected, 0.03 * expected);
+}
+
 // meets_sphere from 7 km away: lines passing at 0.95 and 1.05 radii from a unit-scale target.
 TEST(PhotonStreams, MeetsSphereKeepsItsPrecisionKilometresAway) {
     const Vec3 centre(0.3f, 1.4f, -0.2f);
@@ -341,7 +367,8 @@ TEST(PhotonStreams, MediaStreamAimsAtTheMedia) {
     d.media.push_back(fog_box());
     const auto scene = load_scene(d);
     const StreamSet set = make_streams(*scene, false, true);
-    ASSERT_EQ(set.streams.size(), 3u);  // media, near media, rest
+    ASSERT_EQ(set.streams.size(), 4u);  // media, near media, rest; the ground's bounce
+    EXPECT_EQ(set.bounce, 3);
     EXPECT_EQ(set.streams[0].target, 0);
     int hits = 0;
     for (int i = 0; i < 1000; ++i) {
