@@ -27,10 +27,10 @@ public:
     /// A photon as queries read it.
     struct Record {
         Vec3 position;
-        float r2;         ///< squared radius
-        Vec3 direction;   ///< travel direction
-        float norm;       ///< 3 / (2π r³): K(d) = norm · sqrt(r² − d²)
-        Color power;      ///< relative power, as stored (× the map's photon_power: watts)
+        float r2;        ///< squared radius
+        Vec3 direction;  ///< travel direction
+        float norm;      ///< 3 / (2π r³): K(d) = norm · sqrt(r² − d²)
+        Color power;     ///< relative power, as stored (× the map's photon_power: watts)
     };
 
     /// Calls f(const Record&, float t, float kernel) for each photon whose sphere meets the ray
@@ -85,7 +85,8 @@ void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
             const double h = std::sqrt(p.r2 - d2);
             const double a = std::max<double>(t - h, t0), b = std::min<double>(t + h, t1);
             if (!(b > a)) continue;
-            f(p, static_cast<float>(std::clamp(t, a, b)), p.norm * static_cast<float>(0.5 * (b - a)));
+            f(p, static_cast<float>(std::clamp(t, a, b)),
+              p.norm * static_cast<float>(0.5 * (b - a)));
         }
     }
 }

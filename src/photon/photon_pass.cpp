@@ -86,7 +86,8 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                      (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
                     if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
                     power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
-                    if (depth > 0 && store[kVolume] && !owned) deposit(kVolume, Photon(x, ray.d, power));
+                    if (depth > 0 && store[kVolume] && !owned)
+                        deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             } else {
@@ -96,7 +97,8 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                 if (tr.event == TrackEvent::Absorbed) return ended(PathEnd::Absorbed, depth + 1);
                 if (tr.event == TrackEvent::Scattered) {
                     x = ray.at(tr.t);
-                    if (depth > 0 && store[kVolume] && !owned) deposit(kVolume, Photon(x, ray.d, power));
+                    if (depth > 0 && store[kVolume] && !owned)
+                        deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             }
@@ -237,13 +239,14 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                     Ray ray;
                     Color power = st.color;
                     const bool bounce = static_cast<int>(job.stream) == set.bounce;
-                    if (bounce ? !sample_bounce(set, set.bounce, scene, samplers, rng, &ray, &power)
-                               : !sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
+                    if (bounce
+                            ? !sample_bounce(set, set.bounce, scene, samplers, rng, &ray, &power)
+                            : !sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
                         continue;
-                    const PhotonSource source =
-                        bounce ? PhotonSource::Bounce
-                        : scene.lights[st.light].is_infinite() ? PhotonSource::SunOrSky
-                                                               : PhotonSource::LocalLight;
+                    const PhotonSource source = bounce ? PhotonSource::Bounce
+                                                : scene.lights[st.light].is_infinite()
+                                                    ? PhotonSource::SunOrSky
+                                                    : PhotonSource::LocalLight;
                     ++o.accepted;
                     const TracedPath path =
                         tracer.trace(ray, power, rng, samplers,

@@ -85,8 +85,7 @@ float disc_distance(const Vec3& o, const Vec3& d, const StreamTarget& t) {
     const DVec3 oc = DVec3(t.center) - DVec3(o), dd = DVec3(d);
     const double along = glm::dot(oc, dd);
     const DVec3 perp = oc - along * dd;
-    return along > 0.0 && glm::dot(perp, perp) < double(t.radius) * t.radius ? float(along)
-                                                                              : -1.0f;
+    return along > 0.0 && glm::dot(perp, perp) < double(t.radius) * t.radius ? float(along) : -1.0f;
 }
 
 }  // namespace

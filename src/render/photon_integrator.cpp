@@ -166,7 +166,8 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             continue;
         }
         const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
-        out[Layer::Direct] += beta * direct_diffuse(scene_, ts.media, hit->p, n, mat.albedo, rng, &ts.rays);
+        out[Layer::Direct] +=
+            beta * direct_diffuse(scene_, ts.media, hit->p, n, mat.albedo, rng, &ts.rays);
         if (maps_.caustic)
             out[Layer::Caustic] +=
                 beta * mat.albedo * kInvPi *

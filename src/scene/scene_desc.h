@@ -93,13 +93,13 @@ struct RenderSettings {
     Integrator integrator = Integrator::Auto;
     /// Not a scene key: why the integrator was chosen when the scene asked for auto.
     std::string auto_reason;
-    int spp = 16;        ///< samples per pixel, >= 1
+    int spp = 16;  ///< samples per pixel, >= 1
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
     /// cuts is reported (a warning above 0.1% of the samples).
     int max_depth = 1000000;
-    uint64_t seed = 1;   ///< results are a function of the seed alone
-    int threads = 0;     ///< 0 = all cores
+    uint64_t seed = 1;  ///< results are a function of the seed alone
+    int threads = 0;    ///< 0 = all cores
 };
 
 /// Photon budgets (DESIGN.md, Photons): photons *stored* per map; shooting goes on until every

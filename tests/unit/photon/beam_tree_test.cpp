@@ -68,7 +68,8 @@ TEST(BeamTree, EveryRadiusIsTheKthNeighbourDistanceOfAPhotonWithinIt) {
     const std::vector<Photon>& photons = map.tree.records();
     ASSERT_EQ(beam.records().size(), photons.size());
     std::vector<float> exact(photons.size());
-    for (size_t i = 0; i < photons.size(); ++i) exact[i] = kth_distance(photons, photons[i].position());
+    for (size_t i = 0; i < photons.size(); ++i)
+        exact[i] = kth_distance(photons, photons[i].position());
     size_t own = 0;
     for (const BeamTree::Record& rec : beam.records()) {
         const float r = std::sqrt(rec.r2);
@@ -76,8 +77,8 @@ TEST(BeamTree, EveryRadiusIsTheKthNeighbourDistanceOfAPhotonWithinIt) {
         for (size_t i = 0; i < photons.size() && !found; ++i)
             found = std::fabs(exact[i] - r) <= 1e-5f * r &&
                     glm::length(photons[i].position() - rec.position) <= r * (1.0f + 1e-5f);
-        EXPECT_TRUE(found) << "radius " << r << " at (" << rec.position.x << ", "
-                           << rec.position.y << ", " << rec.position.z << ")";
+        EXPECT_TRUE(found) << "radius " << r << " at (" << rec.position.x << ", " << rec.position.y
+                           << ", " << rec.position.z << ")";
         own += std::fabs(kth_distance(photons, rec.position) - r) <= 1e-5f * r;
     }
     // Sharing is what saves the queries: most photons take their leaf's radius, not their own.

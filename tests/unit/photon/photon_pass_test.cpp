@@ -96,8 +96,8 @@ TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
         quad(Vec3(-1.0f, 0.0f, -1.0f), Vec3(0.0f, 0.0f, 2.0f), Vec3(2.0f, 0.0f, 0.0f), "floor"));
     d.photons.global = 100;
     d.photons.max_emitted = 50000;
-    const PhotonPassResult r =
-        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(photon(d)), d.photons,
+                                             d.march, d.render.seed, true);
     EXPECT_EQ(r.emitted, 50000u);
     ASSERT_TRUE(r.global.has_value());
     EXPECT_EQ(r.global->photons.size(), 0u);
@@ -126,8 +126,8 @@ TEST(PhotonPass, BounceCapCountsEveryPathItCuts) {
     d.photons.max_bounces = 1;
     d.photons.max_emitted = 200000;
     d.march.method = FreePathMethod::Delta;
-    const PhotonPassResult r =
-        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(photon(d)), d.photons,
+                                             d.march, d.render.seed, true);
     ASSERT_EQ(r.emitted, 200000u);
     double expected = 0.0;
     const int n = 200000;
@@ -330,8 +330,8 @@ TEST(PhotonStreams, GroundLightReachesAThinMediumThroughTheBounceStream) {
                                   Color(sigma_s), Color(0.0f)));
     d.photons.global = d.photons.caustic = 0;
     d.photons.volume = 100000;
-    const PhotonPassResult r =
-        trace_photons(*load_scene(d), make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+    const PhotonPassResult r = trace_photons(*load_scene(d), make_plan(photon(d)), d.photons,
+                                             d.march, d.render.seed, true);
     ASSERT_TRUE(r.volume);
     double total = 0.0;
     for (const Photon& p : r.volume->photons) total += average(p.power());
@@ -348,8 +348,8 @@ TEST(PhotonStreams, MeetsSphereKeepsItsPrecisionKilometresAway) {
     Rng rng(3, 0, 0);
     for (int i = 0; i < 1000; ++i) {
         const Vec3 d = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
-        const Vec3 side = glm::normalize(glm::cross(d, std::abs(d.y) < 0.9f ? Vec3(0, 1, 0)
-                                                                            : Vec3(1, 0, 0)));
+        const Vec3 side =
+            glm::normalize(glm::cross(d, std::abs(d.y) < 0.9f ? Vec3(0, 1, 0) : Vec3(1, 0, 0)));
         for (const float f : {0.95f, 1.05f}) {
             const Ray ray{centre + f * radius * side - 7000.0f * d, d};
             EXPECT_EQ(meets_sphere(ray, centre, radius), f < 1.0f) << i << " at " << f;

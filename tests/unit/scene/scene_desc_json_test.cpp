@@ -309,11 +309,13 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
 
     const InputError integrator = parse_error(json::parse(R"({"render": {"integrator": 1}})"));
     EXPECT_EQ(integrator.field, "/render/integrator");
-    EXPECT_EQ(integrator.reason, "expected one of: auto, path, photon, guided (integrator), found number 1");
+    EXPECT_EQ(integrator.reason,
+              "expected one of: auto, path, photon, guided (integrator), found number 1");
 
     const InputError path = parse_error(json::parse(R"({"render": {"integrator": "bdpt"}})"));
     EXPECT_EQ(path.field, "/render/integrator");
-    EXPECT_EQ(path.reason, "unknown integrator 'bdpt'; expected one of: auto, path, photon, guided");
+    EXPECT_EQ(path.reason,
+              "unknown integrator 'bdpt'; expected one of: auto, path, photon, guided");
 
     const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "cone"}})"));
     EXPECT_EQ(estimator.field, "/volume/estimator");
