@@ -24,6 +24,7 @@ constexpr uint64_t kBatch = 1u << 15;  // attempts of the fastest stream per rou
 constexpr uint64_t kChunk = 512;
 constexpr uint64_t kPilot = 8192;      // attempts per stream before the allocation
 constexpr uint64_t kFirstRound = 256;  // the pilot's first round, kept whole by every map
+constexpr double kGlobalShare = 0.25;  // see close_global_with_volume in trace_photons
 
 constexpr int kGlobal = static_cast<int>(PhotonMapId::Global);
 constexpr int kCaustic = static_cast<int>(PhotonMapId::Caustic);
@@ -336,12 +337,16 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     // little of is still sampled.
     double max_power = 0.0;
     for (const PhotonStream& st : set.streams) max_power = std::max(max_power, st.region_power);
+    // Power (W, channel average) stream s has put into map m per attempt, × its region's power.
+    auto deposit_rate = [&](size_t s, int m) {
+        return set.streams[s].region_power * pairs[s][m].power / behind(s, m);
+    };
     auto allocation = [&] {
         std::vector<std::array<double, 3>> deposited(n_streams);
         std::array<double, 3> map_power{0.0, 0.0, 0.0};
         for (size_t s = 0; s < n_streams; ++s)
             for (int m = 0; m < 3; ++m) {
-                deposited[s][m] = set.streams[s].region_power * pairs[s][m].power / behind(s, m);
+                deposited[s][m] = deposit_rate(s, m);
                 map_power[m] += deposited[s][m];
             }
         std::vector<double> rate(n_streams, 0.0);
@@ -362,9 +367,42 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
         return rate;
     };
 
+    // A global map still open when the volume map is full closes with it if its photons carry
+    // under kGlobalShare of the volume map's power: light that surfaces get only through the media
+    // (an open ground under smoke) would otherwise drive the whole pass — smoke1 over a 10 km
+    // ground: 4.4M attempts for the global map against 2.75M for the volume map, and the smaller
+    // global map had the lower error (README, Choosing gather settings). Unbiased: its photons
+    // weigh Φ_s over the attempts at its close. Checked once, when the volume map has filled.
+    bool global_checked = false;
+    auto close_global_with_volume = [&] {
+        if (global_checked || !maps[kGlobal] || !maps[kVolume] || open[kVolume] || !open[kGlobal])
+            return;
+        global_checked = true;
+        double global_power = 0.0, volume_power = 0.0;
+        for (size_t s = 0; s < n_streams; ++s) {
+            global_power += deposit_rate(s, kGlobal);
+            volume_power += deposit_rate(s, kVolume);
+        }
+        if (!(global_power < kGlobalShare * volume_power)) return;
+        open[kGlobal] = false;
+        for (size_t u = 0; u < n_streams; ++u) {
+            pairs[u][kGlobal].closed = true;
+            pairs[u][kGlobal].stop_at = attempts[u];
+        }
+        tracer.set_store(open);
+        char text[160];
+        std::snprintf(text, sizeof text,
+                      "closed with the volume map: its photons carry %.0f%% of the volume map's "
+                      "power",
+                      100.0 * global_power / volume_power);
+        maps[kGlobal]->stopped = text;
+    };
+
     // Rounds of the allocation until every map is full or the cap is reached.
     uint64_t shown = 0;
     while (any_open()) {
+        close_global_with_volume();
+        if (!any_open()) break;
         const std::vector<double> rate = allocation();
         const uint64_t left = cap > total_attempts() ? cap - total_attempts() : 0;
         if (left == 0) break;
@@ -408,7 +446,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             const double w = weight[photon_stream[m][i]] / map.photon_power;
             if (w != 1.0) p.power_rgbe = encode_rgbe(p.power() * static_cast<float>(w));
         }
-        if (map.photons.size() < map.budget)
+        if (map.photons.size() < map.budget && map.stopped.empty())
             result.warnings.push_back(
                 std::string(kNames[m]) + " map: " + std::to_string(map.photons.size()) + " of " +
                 std::to_string(map.budget) + " photons stored after " +
@@ -443,6 +481,7 @@ PhotonMaps build_trees(PhotonPassResult&& pass) {
         PhotonMap m;
         m.emitted = in->emitted;
         m.photon_power = in->photon_power;
+        m.stopped = std::move(in->stopped);
         in->photons.shrink_to_fit();
         m.tree = KdTree<Photon>(std::move(in->photons));
         m.build_s = timer.seconds();

@@ -8,7 +8,9 @@
 // interaction from a light is left to shadow rays). A pilot of every stream measures what each
 // deposits in each map and what it costs; the streams then emit in the proportions that minimise
 // the maps' summed relative variance per unit of work, each map's budget split into per-stream
-// quotas, until every quota is met or photons.max_emitted attempts have been made.
+// quotas, until every quota is met or photons.max_emitted attempts have been made. A global map
+// still open when the volume map fills closes with it if its photons carry under a quarter of the
+// volume map's power (the light surfaces get only through the media: an open ground under smoke).
 // Deterministic: attempt i of a stream draws from Rng(seed, i, the stream's key) and chunks merge
 // in a fixed order, whatever the thread count.
 // PhotonTracer, the per-photon part, is public so that `fogmap validate` traces its beams with
@@ -34,6 +36,7 @@ struct StoredPhotons {
     uint64_t budget = 0;
     uint64_t emitted = 0;       ///< attempts, over all streams, behind the map's photons
     float photon_power = 0.0f;  ///< W of a photon whose relative power is 1
+    std::string stopped;        ///< why the map closed below its budget by rule ("" if it did not)
 };
 
 /// One stream's figures, for the report.
@@ -136,6 +139,7 @@ struct PhotonMap {
     float photon_power = 0.0f;  ///< W per photon (total power / emitted)
     uint64_t emitted = 0;
     double build_s = 0.0;
+    std::string stopped;  ///< StoredPhotons::stopped
 };
 
 struct PhotonMaps {

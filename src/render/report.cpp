@@ -39,7 +39,8 @@ std::string report_text(const Report& r) {
         out << m.name << " map: " << m.stored << " photons (" << m.emitted << " emitted), "
             << m.bytes << " bytes, "
             << fixed(m.stored > 0 ? double(m.bytes) / double(m.stored) : 0.0, 1)
-            << " bytes/photon, tree built in " << fixed(m.build_s, 3) << " s\n";
+            << " bytes/photon, tree built in " << fixed(m.build_s, 3) << " s"
+            << (m.stopped.empty() ? "" : "; " + m.stopped) << "\n";
     }
     if (r.photons_emitted > 0) out << "photons emitted: " << r.photons_emitted << "\n";
     for (const auto& st : r.streams)
@@ -98,7 +99,8 @@ nlohmann::json report_json(const Report& r) {
                         {"emitted", m.emitted},
                         {"bytes", m.bytes},
                         {"bytes_per_photon", m.stored > 0 ? double(m.bytes) / m.stored : 0.0},
-                        {"build_s", m.build_s}};
+                        {"build_s", m.build_s},
+                        {"stopped", m.stopped}};
     return {{"scene", r.scene},
             {"settings", r.settings},
             {"width", r.width},

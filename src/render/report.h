@@ -18,6 +18,7 @@ struct MapReport {
     uint64_t emitted = 0;  ///< photons emitted when it filled
     uint64_t bytes = 0;    ///< records + tree
     double build_s = 0.0;  ///< kd-tree build wall time
+    std::string stopped;   ///< why it closed below its budget by rule ("" if it did not)
 };
 
 /// One iteration of a run (a plain render is one iteration; progressive runs have many).
@@ -38,10 +39,10 @@ struct Report {
     int width = 0, height = 0, spp = 0, threads = 0;
     uint64_t samples = 0, rays = 0, nonfinite = 0;
     double render_s = 0.0;
-    std::vector<std::string> outputs;  ///< files written
-    std::string plan_text;             ///< make_plan's five lines
-    nlohmann::json plan;               ///< the same as JSON
-    std::vector<MapReport> maps;       ///< photon maps built
+    std::vector<std::string> outputs;                  ///< files written
+    std::string plan_text;                             ///< make_plan's five lines
+    nlohmann::json plan;                               ///< the same as JSON
+    std::vector<MapReport> maps;                       ///< photon maps built
     nlohmann::json streams = nlohmann::json::array();  ///< photon streams: name, attempts, ...
     uint64_t photons_emitted = 0;
     uint64_t depth_capped = 0;          ///< camera samples cut by render.max_depth

@@ -55,7 +55,7 @@ TEST(Progressive, RunLoopShrinksVolumeRadiiAsCubesAndSurfaceRadiiAsSquares) {
     }
 }
 
-TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysFlat) {
+TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysWithinOneIterationsBudgets) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
     const std::vector<std::string> size{"camera.width=64", "camera.height=36"};
     std::vector<std::string> ref = size;
@@ -75,10 +75,13 @@ TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysFlat) {
     for (int i : {1, 3, 7})
         EXPECT_LT(r.iterations[i].rel_mse, r.iterations[i / 2].rel_mse) << "iteration " << i + 1;
     EXPECT_LT(r.iterations[7].rel_mse, 0.5 * r.iterations[0].rel_mse);
-    const size_t first = r.iterations[0].photon_bytes;
+    // Memory is one iteration's maps: at most the budgets (20 000 + 5 000 photons of 20 bytes,
+    // +1% for the paths that overfill a map), whatever the iteration; the global map may close
+    // below its budget with the volume map (photon/photon_pass.h), so it need not be the same.
+    const size_t budget_bytes = (20000 + 5000) * 20;
     for (const IterationReport& it : r.iterations) {
         EXPECT_GT(it.photon_bytes, 0u);
-        EXPECT_LE(it.photon_bytes, first + first / 100) << "iteration " << it.index;
+        EXPECT_LE(it.photon_bytes, budget_bytes + budget_bytes / 100) << "iteration " << it.index;
         EXPECT_LT(it.radii.volume, r.iterations[0].radii.volume * 1.0001f);
     }
 }
