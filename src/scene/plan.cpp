@@ -163,7 +163,7 @@ SceneDesc choose_integrator(SceneDesc desc) {
             desc.media.empty()
                 ? "auto: no medium and no caustics from small lights"
                 : "auto: media under sun, sky or area lights, where the path tracer measured "
-                  "1.7-4x lower error than the photon maps at equal time (smoke and clouds)";
+                  "1.2-3x lower error than the photon maps at equal time (smoke and clouds)";
     }
     return desc;
 }
