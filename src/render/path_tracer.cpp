@@ -76,14 +76,12 @@ Color PathTracer::point_lights_in_segment(const Ray& ray, float t_max, Rng& rng,
     if (!(tb > ta)) return sum;
     for (const Light& light : scene_.lights) {
         if (light.type != LightType::Point && light.type != LightType::Spot) continue;
-        const float delta = glm::dot(light.position - ray.o, ray.d);
-        const float D = glm::length(light.position - ray.at(delta));
-        const float th_a = std::atan2(ta - delta, D), th_b = std::atan2(tb - delta, D);
+        const EquiAngular equi(ray, light.position, ta, tb);
         const float u = rng.uniform();
         float t, pdf;
-        if (D > 1e-4f * (tb - ta) && th_b > th_a) {
-            t = std::clamp(delta + D * std::tan(th_a + u * (th_b - th_a)), ta, tb);
-            pdf = D / ((th_b - th_a) * (D * D + (t - delta) * (t - delta)));
+        if (equi.valid()) {
+            t = equi.sample(u);
+            pdf = equi.pdf(t);
         } else {  // the ray passes through the light: uniform
             t = ta + u * (tb - ta);
             pdf = 1.0f / (tb - ta);

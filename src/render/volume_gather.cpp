@@ -1,11 +1,13 @@
 #include "render/volume_gather.h"
 
+#include "core/sampling.h"
 #include "media/phase.h"
 #include "photon/estimators.h"
 #include "scene/shadow.h"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 namespace fogmap {
 
@@ -92,16 +94,12 @@ Color VolumeGather::single_scattering(const Ray& ray, const Color& beta, Rng& rn
     };
     const float ta = steps.front().t0, tb = steps.back().t1;
     for (const Light& light : scene_.lights) {
-        // Equi-angular set-up: Δ = the ray's closest approach to the light, D its distance.
-        const bool point = light.type == LightType::Point || light.type == LightType::Spot;
-        const float delta = point ? glm::dot(light.position - ray.o, ray.d) : 0.0f;
-        const float D = point ? glm::length(light.position - (ray.o + delta * ray.d)) : 0.0f;
-        const float th_a = std::atan2(ta - delta, D), th_b = std::atan2(tb - delta, D);
-        const bool equi = point && D > 1e-4f * (tb - ta) && th_b > th_a;
-        auto equi_pdf = [&](float t) {
-            const float u = t - delta;
-            return equi ? D / ((th_b - th_a) * (D * D + u * u)) : 0.0f;
-        };
+        std::optional<EquiAngular> equi;
+        if (light.type == LightType::Point || light.type == LightType::Spot) {
+            equi.emplace(ray, light.position, ta, tb);
+            if (!equi->valid()) equi.reset();
+        }
+        auto equi_pdf = [&](float t) { return equi ? equi->pdf(t) : 0.0f; };
         for (int j = 0; j < m; ++j) {
             const double target = (j + rng.uniform()) * total / m;
             const size_t k = std::min<size_t>(
@@ -114,8 +112,7 @@ Color VolumeGather::single_scattering(const Ray& ray, const Color& beta, Rng& rn
             const float p = steps_pdf(s, t) + equi_pdf(t);
             if (p > 0.0f) sum += radiance_at(light, s, t) / (m * p);
             if (!equi) continue;
-            const float th = th_a + (j + rng.uniform()) / m * (th_b - th_a);
-            const float te = std::clamp(delta + D * std::tan(th), ta, tb);
+            const float te = equi->sample((j + rng.uniform()) / m);
             const auto it =
                 std::upper_bound(steps.begin(), steps.end(), te,
                                  [](float v, const MarchedStep& x) { return v < x.t1; });
