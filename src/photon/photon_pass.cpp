@@ -211,6 +211,15 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     std::vector<std::array<Pair, 3>> pairs(n_streams);
     std::array<std::vector<uint16_t>, 3> photon_stream;  // each stored photon's stream
 
+    // Closes map m at every stream's attempts so far (its photons weigh Φ_s over those).
+    auto close_now = [&](int m) {
+        open[m] = false;
+        for (size_t u = 0; u < n_streams; ++u) {
+            pairs[u][m].closed = true;
+            pairs[u][m].stop_at = attempts[u];
+        }
+    };
+
     // Emits count[s] more attempts of every stream in parallel chunks and merges them in a fixed
     // order, stream by stream and attempt by attempt. A map closes at the attempt whose path fills
     // its budget (keeping that whole path): for that stream at that attempt, for the streams
@@ -294,13 +303,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
         }
         for (size_t s = 0; s < n_streams; ++s) attempts[s] += count[s];
         for (int m = 0; m < 3 && first; ++m)
-            if (open[m] && maps[m]->photons.size() >= maps[m]->budget) {
-                open[m] = false;
-                for (size_t u = 0; u < n_streams; ++u) {
-                    pairs[u][m].closed = true;
-                    pairs[u][m].stop_at = attempts[u];
-                }
-            }
+            if (open[m] && maps[m]->photons.size() >= maps[m]->budget) close_now(m);
         tracer.set_store(open);
     };
     auto total_attempts = [&] {
@@ -384,11 +387,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             volume_power += deposit_rate(s, kVolume);
         }
         if (!(global_power < kGlobalShare * volume_power)) return;
-        open[kGlobal] = false;
-        for (size_t u = 0; u < n_streams; ++u) {
-            pairs[u][kGlobal].closed = true;
-            pairs[u][kGlobal].stop_at = attempts[u];
-        }
+        close_now(kGlobal);
         tracer.set_store(open);
         char text[160];
         std::snprintf(text, sizeof text,
