@@ -38,6 +38,24 @@ InputError validate_error(const json& doc) {
     return catch_input_error([&] { validate(scene_desc_from_json(doc, "scene.json")); });
 }
 
+/// A bad value put at one place of the valid scene: the error names `field`, and its reason holds
+/// `reason`.
+struct BadValue {
+    const char* pointer;  // where `value` is put
+    json value;
+    const char* field;   // the field the error names
+    const char* reason;  // part of the reason
+};
+
+void expect_rejected(const BadValue& c) {
+    SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
+    json doc = scene();
+    doc[json::json_pointer(c.pointer)] = c.value;
+    const InputError e = validate_error(doc);
+    EXPECT_EQ(e.field, c.field);
+    EXPECT_NE(e.reason.find(c.reason), std::string::npos) << e.reason;
+}
+
 TEST(SceneInput, TheValidSceneValidates) {
     EXPECT_NO_THROW(validate(scene_desc_from_json(scene(), "scene.json")));
 }
@@ -78,13 +96,7 @@ TEST(SceneInput, ShapeWithoutMaterialSaysTheKeyIsMissing) {
 }
 
 TEST(SceneInput, SingularOrOutOfRangeTransformsNameTheField) {
-    struct Case {
-        const char* pointer;  // where `value` is put
-        json value;
-        const char* field;   // the field the error names
-        const char* reason;  // part of the reason
-    };
-    const Case cases[] = {
+    const BadValue cases[] = {
         // Zero scale: the box would vanish.
         {"/shapes/1/transform", json::parse(R"({"scale": [1, 0, 1]})"), "/shapes/1/transform",
          "axis scales 1 x 0 x 1"},
@@ -101,14 +113,7 @@ TEST(SceneInput, SingularOrOutOfRangeTransformsNameTheField) {
         {"/camera/position", json::parse("[0, 1e12, 4]"), "/camera/position", "within ±1e+08"},
         {"/lights/1/position", json::parse("[1e30, 0, 0]"), "/lights/1/position", "within ±1e+08"},
     };
-    for (const Case& c : cases) {
-        SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
-        json doc = scene();
-        doc[json::json_pointer(c.pointer)] = c.value;
-        const InputError e = validate_error(doc);
-        EXPECT_EQ(e.field, c.field);
-        EXPECT_NE(e.reason.find(c.reason), std::string::npos) << e.reason;
-    }
+    for (const BadValue& c : cases) expect_rejected(c);
     // A medium's transform: its own field too.
     json doc = scene();
     doc["media"] = json::parse(R"([{"type": "vdb", "file": "x.vdb",
@@ -126,30 +131,19 @@ TEST(SceneInput, TransformRangeBoundariesAreAccepted) {
 }
 
 TEST(SceneInput, LightPowerBeyondFloatHeadroomIsRefused) {
-    struct Case {
-        const char* pointer;
-        json value;
-        const char* field;
-    };
     // Point: 4π I; quad: π A L; sun: E itself (its power needs the scene size: checked at load);
     // environment: 4π² L per unit of cross-section. Each here exceeds 1e20 W (per m²).
-    const Case cases[] = {
-        {"/lights/0/irradiance", 1e36, "/lights/0/irradiance"},
-        {"/lights/1/intensity", 1e19, "/lights/1/intensity"},  // 4π 1e19 = 1.26e20
+    const char* const reason = "expected at most 1e+20";
+    const BadValue cases[] = {
+        {"/lights/0/irradiance", 1e36, "/lights/0/irradiance", reason},
+        {"/lights/1/intensity", 1e19, "/lights/1/intensity", reason},  // 4π 1e19 = 1.26e20
         {"/lights/1", json::parse(R"({"type": "environment", "radiance": [1, 1e19, 1]})"),
-         "/lights/1/radiance"},
+         "/lights/1/radiance", reason},
         {"/lights/1", json::parse(R"({"type": "quad", "corner": [0, 3, 0], "edge_u": [1e3, 0, 0],
                                       "edge_v": [0, 0, 1e3], "radiance": 1e14})"),
-         "/lights/1/radiance"},  // π 1e6 1e14 = 3.1e20
+         "/lights/1/radiance", reason},  // π 1e6 1e14 = 3.1e20
     };
-    for (const Case& c : cases) {
-        SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
-        json doc = scene();
-        doc[json::json_pointer(c.pointer)] = c.value;
-        const InputError e = validate_error(doc);
-        EXPECT_EQ(e.field, c.field);
-        EXPECT_NE(e.reason.find("expected at most 1e+20"), std::string::npos) << e.reason;
-    }
+    for (const BadValue& c : cases) expect_rejected(c);
     // Just below: 4π 7e18 = 8.8e19 W.
     json doc = scene();
     doc["lights"][1]["intensity"] = 7e18;
