@@ -52,11 +52,9 @@ bool sphere_within(const StreamTarget& a, const StreamTarget& b) {  // a inside 
 /// The bounce stream (streams.h), when the scene has media, a diffuse surface and a sun or sky.
 /// Its region power is 4π · π R² · L_ref, L_ref a scale of the radiance a lit diffuse surface
 /// reflects (the sun's and sky's irradiance × the largest albedo / π); each photon carries its
-/// own radiance / L_ref, so the scale only balances the allocation between streams.
-void add_bounce_stream(const Scene& scene, StreamSet* set) {
-    int media = -1;
-    for (size_t k = 0; k < set->targets.size(); ++k)
-        if (set->targets[k].name == "media") media = static_cast<int>(k);
+/// own radiance / L_ref, so the scale only balances the allocation between streams. `media`: the
+/// media target's index (-1: none).
+void add_bounce_stream(const Scene& scene, int media, StreamSet* set) {
     if (media < 0 || set->streams.empty() || !scene.surfaces) return;
     float albedo = 0.0f;
     for (const Material& m : scene.materials)
@@ -147,10 +145,12 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
             }
         if (!b.empty()) set.targets.push_back(sphere_of(b, "specular"));
     }
+    int media_target = -1;
     if (media) {
         Box3 b;
         for (const Medium& m : scene.media) b.extend(m.world_bounds());
         if (!b.empty()) {
+            media_target = static_cast<int>(set.targets.size());
             set.targets.push_back(sphere_of(b, "media"));
             StreamTarget near = set.targets.back();
             near.radius *= kNearFactor;
@@ -223,7 +223,7 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
         if (covered || in_any) continue;
         add(-1, is_infinite(l) ? disc_power(world.radius) : cone_power(whole));
     }
-    add_bounce_stream(scene, &set);
+    add_bounce_stream(scene, media_target, &set);
     return set;
 }
 
