@@ -141,10 +141,8 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
         ray = Ray{offset_point(hit->p, n, scene.offset_floor),
                   sample_cosine_hemisphere(n, Vec2(rng.uniform(), rng.uniform()))};
         specular_chain = false;
-        if (depth == 0 && bounce_owner_ && source == PhotonSource::SunOrSky) {
-            uint64_t rays = 0;
-            owned = bounce_owner_->owns_bounce(scene, ray, &rays);
-        }
+        if (depth == 0 && bounce_owner_ && source == PhotonSource::SunOrSky)
+            owned = bounce_owner_->owns_bounce(scene, ray);
     }
     return ended(PathEnd::BounceCap, max_bounces);
 }

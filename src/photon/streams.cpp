@@ -88,11 +88,10 @@ float disc_distance(const Vec3& o, const Vec3& d, const StreamTarget& t) {
 
 }  // namespace
 
-bool StreamSet::owns_bounce(const Scene& scene, const Ray& ray, uint64_t* rays) const {
+bool StreamSet::owns_bounce(const Scene& scene, const Ray& ray) const {
     if (bounce < 0) return false;
     const float t = disc_distance(ray.o, ray.d, targets[streams[bounce].target]);
     if (t < 0.0f) return false;
-    ++*rays;
     return !scene.surfaces->occluded(ray, 0.0f, t);
 }
 

@@ -53,8 +53,8 @@ struct StreamSet {
     std::vector<PhotonStream> streams;
     int bounce = -1;  ///< index of the bounce stream in streams, -1 if none
     /// The bounce stream's target (the media): whether a light path's segment leaving its first,
-    /// diffuse, interaction belongs to the bounce stream. Counts an Embree query in *rays.
-    bool owns_bounce(const Scene& scene, const Ray& ray, uint64_t* rays) const;
+    /// diffuse, interaction belongs to the bounce stream.
+    bool owns_bounce(const Scene& scene, const Ray& ray) const;
 };
 
 /// The streams of `scene`'s lights that emit, with targets for the specular surfaces (when
