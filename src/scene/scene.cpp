@@ -81,19 +81,18 @@ void check_light_powers(const SceneDesc& desc, const Box3& bounds) {
 }
 
 /// Steps per camera ray through each medium, estimated up front from the medium's diagonal and
-/// the march step (ray_march.h): the marcher takes at most kMaxStepsPerPiece steps per piece and
-/// lengthens them beyond, so a step that would need more is refused rather than silently
-/// changed (photon integrator: camera rays always march; plan.cpp).
+/// the marcher's own step (ray_march.h): the marcher takes at most kMaxStepsPerPiece steps per
+/// piece and lengthens them beyond, so a step that would need more is refused rather than
+/// silently changed (photon integrator: camera rays always march; plan.cpp).
 void check_march_steps(const SceneDesc& desc, const std::vector<Medium>& media) {
     if (desc.render.integrator != Integrator::Photon) return;
+    const RayMarcher marcher(media, desc.march);
     for (size_t i = 0; i < media.size(); ++i) {
         const Medium& m = media[i];
         if (m.world_bounds().empty()) continue;
         const double diagonal = glm::length(glm::dvec3(m.world_bounds().extent()));
         const bool grid = m.grid() != nullptr;
-        const double step = grid ? double(desc.march.step_voxels) * m.voxel_world()
-                            : desc.march.step_world > 0.0f ? double(desc.march.step_world)
-                                                           : diagonal / 128.0;
+        const double step = marcher.step(static_cast<int>(i));
         const double steps = diagonal / step;
         if (!(steps > RayMarcher::kMaxStepsPerPiece)) continue;
         const std::string key = grid ? "step_voxels" : "step_world";
