@@ -208,8 +208,11 @@ int run_volume(const VolumeArgs& args) {
         s.shape = VolumeShape::Cloud;
     else if (args.shape == "plume")
         s.shape = VolumeShape::Plume;
+    else if (args.shape == "fireball")
+        s.shape = VolumeShape::Fireball;
     else
-        throw InputError("", "shape", "unknown shape '" + args.shape + "'; expected cloud, plume");
+        throw InputError("", "shape",
+                         "unknown shape '" + args.shape + "'; expected cloud, plume, fireball");
     if (!has_extension(args.output, ".vdb"))
         throw InputError("", "-o", "'" + args.output + "' does not end in .vdb");
     if (args.resolution < 2 || args.resolution > 1024)

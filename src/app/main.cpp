@@ -80,7 +80,8 @@ int main(int argc, char** argv) {
 
     VolumeArgs volume;
     CLI::App* vol = app.add_subcommand("volume", "generate a procedural density grid");
-    vol->add_option("shape", volume.shape, "cloud or plume")->required();
+    vol->add_option("shape", volume.shape, "cloud, plume or fireball (density + temperature)")
+        ->required();
     vol->add_option("-o,--output", volume.output, "output .vdb")->required();
     vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");

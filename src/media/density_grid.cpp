@@ -245,6 +245,21 @@ void check_sampler_size(const std::string& path, const std::string& field,
 
 DensityGrid::~DensityGrid() = default;
 
+std::vector<std::string> vdb_grid_names(const std::string& path, const std::string& field) {
+    init_openvdb();
+    check_vdb_file(path, field);
+    std::vector<std::string> names;
+    try {
+        openvdb::io::File file(path);
+        file.open(/*delayLoad=*/true);
+        for (auto it = file.beginName(); it != file.endName(); ++it) names.push_back(*it);
+        file.close();
+    } catch (const std::exception& e) {
+        throw InputError(path, field, vdb_error_reason(e.what()));
+    }
+    return names;
+}
+
 std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                                const std::string& grid_name,
                                                const std::string& field) {

@@ -43,6 +43,10 @@ struct GridInfo {
 /// Lists every grid of a VDB file. Throws InputError{path, "", reason} if unreadable.
 std::vector<GridInfo> inspect_vdb(const std::string& path);
 
+/// The grid names of a VDB file, in file order, from its header alone (no grid is read).
+/// Throws InputError{path, field, reason} if unreadable.
+std::vector<std::string> vdb_grid_names(const std::string& path, const std::string& field);
+
 struct SanitizeStats {
     uint64_t nan = 0, inf = 0, negative = 0, denormal = 0;
     uint64_t total() const { return nan + inf + negative + denormal; }

@@ -53,13 +53,132 @@ Medium Medium::heterogeneous(const MediumParams& params, std::shared_ptr<const D
     return m;
 }
 
+void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
+    emission_ = std::move(emission);
+    const DensityGrid* eg = emission_->grid();
+    if (eg)
+        world_to_emission_index_ =
+            glm::inverse(scene_transform * to_float(eg->index_to_world()));
+    emission_cells_.clear();
+    emission_bounds_.clear();
+    emission_cdf_.clear();
+    emitted_power_ = emission_bound_power_ = 0.0;
+    // Bound of average(L_e) over a world box: the emission grid's majorant cells it overlaps.
+    auto emission_bound = [&](const Box3& world_box) {
+        if (!eg) return emission_->average_bound(0.0f);
+        if (eg->empty()) return 0.0f;
+        const Box3 b = transform_box(world_to_emission_index_, world_box);
+        const MajorantGrid& em = eg->majorants();
+        std::array<int, 3> lo{}, hi{};
+        for (int a = 0; a < 3; ++a) {
+            const float c0 = std::floor((b.lo[a] - float(em.origin[a])) / float(em.cell));
+            const float c1 = std::floor((b.hi[a] - float(em.origin[a])) / float(em.cell));
+            if (!(c1 >= 0.0f) || !(c0 < float(em.dims[a]))) return 0.0f;
+            lo[a] = static_cast<int>(std::max(c0, 0.0f));
+            hi[a] = static_cast<int>(std::min(c1, float(em.dims[a] - 1)));
+        }
+        float v_max = 0.0f;
+        for (int k = lo[2]; k <= hi[2]; ++k)
+            for (int j = lo[1]; j <= hi[1]; ++j)
+                for (int i = lo[0]; i <= hi[0]; ++i) v_max = std::max(v_max, em.at(i, j, k));
+        return emission_->average_bound(v_max);
+    };
+    const float sigma_a_max = max_component(params_.sigma_a);
+    double total = 0.0;
+    auto add_cell = [&](uint32_t cell, float bound) {
+        if (!(bound > 0.0f)) return;
+        emission_cells_.push_back(cell);
+        emission_bounds_.push_back(bound);
+        emission_cdf_.push_back(total += double(bound) * cell_volume_);
+    };
+    if (!grid_) {
+        if (world_bounds_.empty()) return;
+        const Vec3 e = world_bounds_.extent();
+        cell_volume_ = double(e.x) * e.y * e.z;
+        add_cell(0, sigma_a_max * emission_bound(world_bounds_));
+    } else {
+        if (grid_->empty()) return;
+        const MajorantGrid& maj = grid_->majorants();
+        cell_volume_ = std::pow(double(maj.cell), 3) * std::abs(glm::determinant(index_to_world_));
+        uint32_t n = 0;
+        for (int k = 0; k < maj.dims[2]; ++k)
+            for (int j = 0; j < maj.dims[1]; ++j)
+                for (int i = 0; i < maj.dims[0]; ++i, ++n) {
+                    const float d_max = maj.max_density[n];
+                    if (!(d_max > 0.0f)) continue;
+                    Box3 box;
+                    box.lo = Vec3(maj.origin[0] + maj.cell * i, maj.origin[1] + maj.cell * j,
+                                  maj.origin[2] + maj.cell * k);
+                    box.hi = box.lo + Vec3(float(maj.cell));
+                    add_cell(n, d_max * sigma_a_max *
+                                    emission_bound(transform_box(index_to_world_, box)));
+                }
+    }
+    emission_bound_power_ = 4.0 * kPi * total;
+    if (emission_cells_.empty()) return;
+    // The power: the bound × the mean acceptance probability over kSamples tentative points.
+    constexpr int kSamples = 65536;
+    Sampler s(*this);
+    double accepted = 0.0;
+    for (int i = 0; i < kSamples; ++i) {
+        Rng rng(0x454d495353ull, static_cast<uint64_t>(i));
+        size_t cell;
+        const Vec3 p = s.emission_point(rng, &cell);
+        accepted += average(s.density(p) * params_.sigma_a * s.emission(p)) /
+                    double(emission_bounds_[cell]);
+    }
+    emitted_power_ = emission_bound_power_ * accepted / kSamples;
+}
+
 Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
     if (medium.grid_) grid_sampler_.emplace(*medium.grid_);
+    if (medium.emission_ && medium.emission_->grid())
+        emission_sampler_.emplace(*medium.emission_->grid());
 }
 
 float Medium::Sampler::density(const Vec3& p_world) {
     if (!grid_sampler_) return medium_->world_bounds_.contains(p_world) ? 1.0f : 0.0f;
     return grid_sampler_->density(transform_point(medium_->world_to_index_, p_world));
+}
+
+Color Medium::Sampler::emission(const Vec3& p_world) {
+    const Medium& m = *medium_;
+    if (!m.emission_) return Color(0.0f);
+    if (!emission_sampler_) return m.emission_->radiance_of_value(0.0f);
+    return m.emission_->radiance_of_value(
+        emission_sampler_->density(transform_point(m.world_to_emission_index_, p_world)));
+}
+
+Vec3 Medium::Sampler::emission_point(Rng& rng, size_t* cell) {
+    const Medium& m = *medium_;
+    const double u = rng.uniform_double() * m.emission_cdf_.back();
+    *cell = std::min<size_t>(
+        std::upper_bound(m.emission_cdf_.begin(), m.emission_cdf_.end(), u) -
+            m.emission_cdf_.begin(),
+        m.emission_cdf_.size() - 1);
+    const Vec3 q(rng.uniform(), rng.uniform(), rng.uniform());
+    if (!m.grid_) return m.world_bounds_.lo + q * m.world_bounds_.extent();
+    const MajorantGrid& maj = m.grid_->majorants();
+    const uint32_t n = m.emission_cells_[*cell];
+    const int i = static_cast<int>(n % maj.dims[0]);
+    const int j = static_cast<int>((n / maj.dims[0]) % maj.dims[1]);
+    const int k = static_cast<int>(n / (uint32_t(maj.dims[0]) * maj.dims[1]));
+    const Vec3 p_index(maj.origin[0] + maj.cell * (i + q.x), maj.origin[1] + maj.cell * (j + q.y),
+                       maj.origin[2] + maj.cell * (k + q.z));
+    return transform_point(m.index_to_world_, p_index);
+}
+
+bool Medium::Sampler::sample_emission(Rng& rng, Vec3* p_world, Color* color) {
+    const Medium& m = *medium_;
+    if (m.emission_cells_.empty()) return false;
+    size_t cell;
+    const Vec3 p = emission_point(rng, &cell);
+    const Color f = density(p) * m.params_.sigma_a * emission(p);
+    const float a = average(f);
+    if (!(a > 0.0f) || rng.uniform() * m.emission_bounds_[cell] >= a) return false;
+    *p_world = p;
+    *color = f / a;
+    return true;
 }
 
 bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1, bool residual) {
@@ -166,7 +285,7 @@ bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
 }
 
 TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
-                        Color* beta, Collision collision) {
+                        Color* beta, Collision collision, Color* emitted) {
     const int n = static_cast<int>(media.size());
     FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
     std::array<float, kMaxMedia> t_next, mu;
@@ -186,6 +305,8 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
         const float d = media[i].density(ray.at(t));
         const Color sigma_s = d * p.sigma_s, sigma_a = d * p.sigma_a;
         const float m = mu[i];
+        if (emitted && d > 0.0f && media[i].medium().emission())
+            *emitted += *beta * sigma_a * media[i].emission(ray.at(t)) / m;
         const float u = rng.uniform();
         float p_null;
         if (collision == Collision::Analog) {

@@ -8,11 +8,14 @@
 // it, so homogeneous media and uniform cells add no variance. Several media superpose: their majorant processes are
 // walked side by side and the nearest tentative collision is processed (Poisson superposition).
 // Rays must have unit world-space direction; t is world distance.
+// A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling draws
+// points ∝ that source (a table over majorant cells, rejection within a cell) for photons.
 // Thread-safety: a Medium is immutable and shared const; Medium::Sampler is per thread.
 
 #include "core/math.h"
 #include "core/rng.h"
 #include "media/density_grid.h"
+#include "media/emission.h"
 
 #include <cstdint>
 #include <memory>
@@ -46,6 +49,18 @@ public:
     /// Smallest world-space voxel edge of a grid medium; 0 for a homogeneous one.
     float voxel_world() const { return voxel_world_; }
 
+    /// Makes the medium emit; a grid emission is placed by scene_transform * its grid's own
+    /// index_to_world (the density's scene transform). Load time only.
+    void set_emission(Emission emission, const Mat4& scene_transform);
+    /// The emission, or null.
+    const Emission* emission() const { return emission_ ? &*emission_ : nullptr; }
+    /// Radiant power the medium emits, 4π ∫ average(σ_a L_e) dV (W), estimated at set_emission
+    /// by 65536 stratified samples of the sampling table (deterministic); 0 if it does not emit.
+    double emitted_power() const { return emitted_power_; }
+    /// 4π Σ over the emission table's cells of its bound × volume (W): the power one attempt of
+    /// Sampler::sample_emission stands for, of which it accepts emitted_power / this on average.
+    double emission_bound_power() const { return emission_bound_power_; }
+
     /// Per-thread access: density lookups and majorant walks. Not thread-safe; one per thread.
     class Sampler {
     public:
@@ -53,6 +68,12 @@ public:
         const Medium& medium() const { return *medium_; }
         /// Density at a world point (0 outside the medium).
         float density(const Vec3& p_world);
+        /// L_e at a world point (0 outside the emission grid or when the medium does not emit).
+        Color emission(const Vec3& p_world);
+        /// One attempt at a point ∝ average(σ_a L_e): a majorant cell ∝ its bound × volume, a
+        /// uniform point in it, kept with probability average(σ_a L_e)(x) / bound. True, the point
+        /// and the colour σ_a L_e / average(σ_a L_e) there, or false (rejected). Draws only from rng.
+        bool sample_emission(Rng& rng, Vec3* p_world, Color* color);
         /// Starts a walk of tentative collisions of the majorant process along the ray on
         /// [t0, t1]. Returns false if the medium is not met there. With `residual`, the process
         /// runs at the residual majorant (max − min density of each cell) × max σ_t, so a
@@ -81,9 +102,13 @@ public:
         uint64_t exhausted_walks() const { return exhausted_walks_; }
 
     private:
+        friend class Medium;
         bool next_segment();
+        /// A tentative emission point: a cell ∝ bound × volume (its index in *cell), uniform in it.
+        Vec3 emission_point(Rng& rng, size_t* cell);
         const Medium* medium_;
         std::optional<DensityGrid::Sampler> grid_sampler_;
+        std::optional<DensityGrid::Sampler> emission_sampler_;
         // Walk state (index space for grids; t shared with world space). Distances are double:
         // in stiff media a step 1/σ_maj (1e-9 at density scale 1e9) is below a float's
         // resolution of t, and a float walk would stop advancing (a hang in empty space).
@@ -109,6 +134,15 @@ private:
     Mat4 world_to_index_{1.0f};
     Mat4 index_to_world_{1.0f};
     float voxel_world_ = 0.0f;
+    std::optional<Emission> emission_;
+    Mat4 world_to_emission_index_{1.0f};
+    /// Emission sampling: majorant cells (index into the majorant grid; 0 for a homogeneous
+    /// medium's box) with their bound of average(σ_a L_e), and the cumulative bound × volume.
+    std::vector<uint32_t> emission_cells_;
+    std::vector<float> emission_bounds_;
+    std::vector<double> emission_cdf_;
+    double cell_volume_ = 0.0;  ///< world volume of one majorant cell (of the box: homogeneous)
+    double emitted_power_ = 0.0, emission_bound_power_ = 0.0;
 };
 
 enum class TrackEvent { Escaped, Scattered, Absorbed };
@@ -128,9 +162,13 @@ enum class Collision {
 
 /// Weighted delta tracking through all media on (0, t_max) of a unit-direction ray. Multiplies
 /// *beta by the null/scatter weights (exactly 1 for grey media in Analog mode). Unbiased for any
-/// majorant that bounds σ_t; t_max may be infinite.
+/// majorant that bounds σ_t; t_max may be infinite. With `emitted`, adds the media's emission
+/// seen along the ray: β σ_a L_e / μ at every tentative collision of an emitting medium, β the
+/// throughput before the collision's weight (pbrt-v4's estimator: the tentative collisions are
+/// a Poisson process of rate μ, so the sum's expectation is ∫ T σ_a L_e dt; unbiased).
 TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
-                        Color* beta, Collision collision = Collision::Analog);
+                        Color* beta, Collision collision = Collision::Analog,
+                        Color* emitted = nullptr);
 
 /// Transmittance exp(−∫σ_t) on (0, t_max), per channel, by residual ratio tracking: the control
 /// part exp(−σ_t ∫ d_min) exactly (all of it in homogeneous media and uniform cells), the residual

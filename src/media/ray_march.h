@@ -27,6 +27,7 @@ struct MarchStep {
     Vec3 x{0.0f};                ///< jittered sample point inside the step
     Color sigma_s{0.0f};         ///< scattering coefficient at x, all media (1/world unit)
     Color sigma_t{0.0f};         ///< extinction coefficient at x, all media (1/world unit)
+    Color emission{0.0f};        ///< σ_a L_e at x, all emitting media (radiance / world unit)
 };
 
 /// e^{−τ} per channel: transmittance of optical depth τ.
@@ -135,13 +136,15 @@ void RayMarcher::march(std::vector<Medium::Sampler>& samplers, const Ray& ray, f
             s.t0 = a + k * h;
             s.t1 = k + 1 == steps ? b : a + (k + 1) * h;
             s.x = ray.at(s.t0 + jitter * (s.t1 - s.t0));
-            s.sigma_s = s.sigma_t = Color(0.0f);
+            s.sigma_s = s.sigma_t = s.emission = Color(0.0f);
             for (int j = 0; j < n_active; ++j) {
                 Medium::Sampler& sampler = samplers[active[j]];
                 const float d = sampler.density(s.x);
                 if (d <= 0.0f) continue;
-                s.sigma_s += d * sampler.medium().params().sigma_s;
-                s.sigma_t += d * sampler.medium().sigma_t();
+                const Medium& m = sampler.medium();
+                s.sigma_s += d * m.params().sigma_s;
+                s.sigma_t += d * m.sigma_t();
+                if (m.emission()) s.emission += d * m.params().sigma_a * sampler.emission(s.x);
             }
             if (max_component(s.sigma_t) > 0.0f && !f(s)) return;
         }

@@ -31,7 +31,7 @@ void init_openvdb() {
 /// failures it may not report, so the temp is renamed only after its header and grid descriptors
 /// were read back and found complete (check_vdb_file). Active-mask + Blosc (or zip) compression
 /// keeps files small.
-void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& path) {
+void write_grids_atomic(const openvdb::GridPtrVec& grids, const std::string& path) {
     init_openvdb();
     OutputFiles out;
     const StagedFile to = out.stage(path);
@@ -41,7 +41,6 @@ void write_grid_atomic(const openvdb::GridBase::Ptr& grid, const std::string& pa
                                    ? openvdb::io::COMPRESS_BLOSC
                                    : openvdb::io::COMPRESS_ZIP;
         file.setCompression(openvdb::io::COMPRESS_ACTIVE_MASK | codec);
-        openvdb::GridPtrVec grids{grid};
         file.write(grids);
         file.close();
         check_vdb_file(to.temp, "");
@@ -142,6 +141,30 @@ float plume_density(const Noise& noise, const Vec3& q) {
     return std::clamp(d, 0.0f, 1.0f);
 }
 
+struct Fire {
+    float density = 0.0f;
+    float kelvin = 0.0f;
+};
+
+/// Fireball: a billowing core (centre 0.22 up, radius 0.17, fBm-eroded) at up to ~2500 K, with
+/// the plume's rising column of smoke above it, cooling with height from ~1300 K to ~600 K. `q`
+/// as for the plume. Hot gas is thin (density 0.35 in the core) and smoke denser above.
+Fire fireball(const Noise& noise, const Vec3& q) {
+    const Vec3 centre(0.0f, 0.22f, 0.0f);
+    const float radius = 0.17f;
+    const Vec3 nq = q * 6.0f;
+    const float dist = glm::length(q - centre) + 0.3f * radius * noise.fbm(nq + Vec3(5.1f), 4);
+    const float core = 1.0f - smoothstep(0.4f * radius, radius, dist);
+    const float smoke = plume_density(noise, q) * smoothstep(0.2f, 0.45f, q.y);
+    Fire f;
+    f.density = std::max(0.35f * core * (0.8f + 0.2f * noise.fbm(nq * 2.0f, 3)), 0.9f * smoke);
+    if (f.density < kMinDensity) return f;
+    const float cooling = 1.0f - smoothstep(centre.y, 0.95f, q.y);  // 1 at the core, 0 at the top
+    const float smoke_kelvin = 600.0f + 700.0f * cooling;
+    f.kelvin = smoke_kelvin + (2500.0f - smoke_kelvin) * core;
+    return f;
+}
+
 /// Cumulus: union of spheres (smallest signed distance), fBm-displaced, flattened base.
 /// `q` is the voxel position divided by the resolution: x in [-0.5, 0.5], y, z in [-0.4, 0.4].
 float cloud_density(const Noise& noise, const Vec3& q) {
@@ -177,7 +200,10 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
     // Index ranges: the plume stands on voxel row y = 0 centred on x = z = 0; the cloud is
     // centred on the index origin. Translation 0 keeps those placements in world space.
     const int half = res / 2;
-    const bool plume = settings.shape == VolumeShape::Plume;
+    const bool plume = settings.shape != VolumeShape::Cloud;  // the fireball stands like a plume
+    const bool fire = settings.shape == VolumeShape::Fireball;
+    openvdb::FloatGrid::Ptr temperature = openvdb::FloatGrid::create(0.0f);
+    auto temperature_acc = temperature->getAccessor();
     const int y0 = plume ? 0 : -static_cast<int>(0.4f * res);
     const int y1 = plume ? res - 1 : -y0;
     const int zh = plume ? half : static_cast<int>(0.4f * res);
@@ -187,6 +213,13 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
                 const Vec3 q =
                     Vec3(static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)) *
                     inv_res;
+                if (fire) {
+                    const Fire f = fireball(noise, q);
+                    if (f.density < kMinDensity) continue;
+                    acc.setValue(openvdb::Coord(i, j, k), f.density);
+                    temperature_acc.setValue(openvdb::Coord(i, j, k), f.kelvin);
+                    continue;
+                }
                 const float d = plume ? plume_density(noise, q) : cloud_density(noise, q);
                 if (d >= kMinDensity) acc.setValue(openvdb::Coord(i, j, k), d);
             }
@@ -197,25 +230,42 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
     grid->setGridClass(openvdb::GRID_FOG_VOLUME);
     grid->setTransform(make_transform(Vec3(settings.voxel_size), Vec3(0.0f)));
     grid->setSaveFloatAsHalf(true);  // noise fields need no more; halves the file
-    write_grid_atomic(grid, path);
+    openvdb::GridPtrVec grids{grid};
+    if (fire) {
+        temperature->pruneGrid();
+        temperature->setName("temperature");
+        temperature->setGridClass(openvdb::GRID_FOG_VOLUME);
+        temperature->setTransform(grid->transform().copy());
+        temperature->setSaveFloatAsHalf(true);
+        grids.push_back(temperature);
+    }
+    write_grids_atomic(grids, path);
+}
+
+void write_float_grids(const std::string& path, const std::vector<FloatGridSpec>& specs) {
+    init_openvdb();
+    openvdb::GridPtrVec grids;
+    for (const FloatGridSpec& spec : specs) {
+        openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+        auto acc = grid->getAccessor();
+        for (int k = 0; k < spec.nz; ++k)
+            for (int j = 0; j < spec.ny; ++j)
+                for (int i = 0; i < spec.nx; ++i) {
+                    const float v = spec.value(i, j, k);
+                    if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
+                }
+        grid->setName(spec.name);
+        grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+        grid->setTransform(make_transform(spec.voxel_size, spec.translation));
+        grids.push_back(grid);
+    }
+    write_grids_atomic(grids, path);
 }
 
 void write_float_grid(const std::string& path, const std::string& name, int nx, int ny, int nz,
                       const std::function<float(int, int, int)>& value, Vec3 voxel_size,
                       Vec3 translation) {
-    init_openvdb();
-    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
-    auto acc = grid->getAccessor();
-    for (int k = 0; k < nz; ++k)
-        for (int j = 0; j < ny; ++j)
-            for (int i = 0; i < nx; ++i) {
-                const float v = value(i, j, k);
-                if (v != 0.0f) acc.setValue(openvdb::Coord(i, j, k), v);
-            }
-    grid->setName(name);
-    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
-    grid->setTransform(make_transform(voxel_size, translation));
-    write_grid_atomic(grid, path);
+    write_float_grids(path, {{name, nx, ny, nz, value, voxel_size, translation}});
 }
 
 }  // namespace fogmap

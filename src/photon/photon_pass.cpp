@@ -58,6 +58,8 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     auto ended = [&](PathEnd end, int depth) {
         return TracedPath{end, ray, power, depth, met_media};
     };
+    // Emission photons have no shadow rays to leave their first interaction to.
+    const int stored_from = source == PhotonSource::Emission ? 0 : 1;
     bool specular_chain = true;  // every interaction so far was specular
     const bool has_media = !samplers.empty();
     const int max_bounces = max_bounces_;
@@ -87,7 +89,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                      (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
                     if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
                     power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
-                    if (depth > 0 && store[kVolume] && !owned)
+                    if (depth >= stored_from && store[kVolume] && !owned)
                         deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
@@ -98,7 +100,7 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                 if (tr.event == TrackEvent::Absorbed) return ended(PathEnd::Absorbed, depth + 1);
                 if (tr.event == TrackEvent::Scattered) {
                     x = ray.at(tr.t);
-                    if (depth > 0 && store[kVolume] && !owned)
+                    if (depth >= stored_from && store[kVolume] && !owned)
                         deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
@@ -127,10 +129,10 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
             continue;
         }
         const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the photon
-        if (depth > 0) {
+        if (depth >= stored_from) {
             // Surface photons keep the normal of the side they arrived on (Lambertian surfaces
-            // need no direction; see photon.h).
-            const bool caustic = specular_chain;
+            // need no direction; see photon.h). L S+ D: specular bounces only, at least one.
+            const bool caustic = specular_chain && depth > 0;
             if (store[kGlobal])
                 deposit(kGlobal, Photon(hit->p, n, power, caustic ? Photon::kCaustic : 0));
             if (caustic && store[kCaustic]) deposit(kCaustic, Photon(hit->p, n, power));
@@ -191,6 +193,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
 
     const StreamSet set = make_streams(scene, maps[kCaustic] != nullptr, maps[kVolume] != nullptr);
     for (const Light& l : scene.lights) result.total_power += average(light_power(l, scene.bounds));
+    result.total_power += static_cast<float>(emitted_power(scene));
     if (set.streams.empty()) {
         result.warnings.push_back("no light emits power: no photons traced");
         return result;
@@ -246,15 +249,21 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                     Rng rng(seed, i, st.key);
                     Ray ray;
                     Color power = st.color;
-                    const bool bounce = static_cast<int>(job.stream) == set.bounce;
-                    if (bounce
-                            ? !sample_bounce(set, set.bounce, scene, samplers, rng, &ray, &power)
-                            : !sample_stream(set, static_cast<int>(job.stream), scene, rng, &ray))
-                        continue;
-                    const PhotonSource source = bounce ? PhotonSource::Bounce
-                                                : scene.lights[st.light].is_infinite()
-                                                    ? PhotonSource::SunOrSky
-                                                    : PhotonSource::LocalLight;
+                    const int s = static_cast<int>(job.stream);
+                    PhotonSource source;
+                    bool sampled;
+                    if (s == set.bounce) {
+                        source = PhotonSource::Bounce;
+                        sampled = sample_bounce(set, s, scene, samplers, rng, &ray, &power);
+                    } else if (st.medium >= 0) {
+                        source = PhotonSource::Emission;
+                        sampled = sample_emission_stream(set, s, samplers, rng, &ray, &power);
+                    } else {
+                        source = scene.lights[st.light].is_infinite() ? PhotonSource::SunOrSky
+                                                                      : PhotonSource::LocalLight;
+                        sampled = sample_stream(set, s, scene, rng, &ray);
+                    }
+                    if (!sampled) continue;
                     ++o.accepted;
                     const TracedPath path =
                         tracer.trace(ray, power, rng, samplers,

@@ -5,7 +5,8 @@
 // albedo decides survival at every interaction; free paths in media by ray marching (default) or
 // delta tracking. Storage: global map at diffuse hits after at least one interaction, caustic map
 // for L S+ D, volume map at scattering events after at least one interaction (the first
-// interaction from a light is left to shadow rays). A pilot of every stream measures what each
+// interaction from a light is left to shadow rays; emitting media's photons are stored from
+// their first). A pilot of every stream measures what each
 // deposits in each map and what it costs; the streams then emit in the proportions that minimise
 // the maps' summed relative variance per unit of work, each map's budget split into per-stream
 // quotas, until every quota is met or photons.max_emitted attempts have been made. A global map
@@ -81,8 +82,10 @@ struct TaggedPhoton {
 };
 
 /// Where a photon starts: a light whose paths the bounce stream may own (sun, sky), another
-/// light, or the bounce stream (photon/streams.h).
-enum class PhotonSource : uint8_t { SunOrSky, LocalLight, Bounce };
+/// light, the bounce stream (photon/streams.h), or an emitting medium. No light samples an
+/// emitting medium's light at the camera, so its photons are stored from their first
+/// interaction on (the lights' first interactions are left to shadow rays).
+enum class PhotonSource : uint8_t { SunOrSky, LocalLight, Bounce, Emission };
 
 /// How a photon path ended.
 enum class PathEnd {

@@ -223,7 +223,26 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
         add(-1, is_infinite(l) ? disc_power(world.radius) : cone_power(whole));
     }
     add_bounce_stream(scene, media_target, &set);
+    for (size_t i = 0; i < scene.media.size(); ++i) {
+        const double power = scene.media[i].emission_bound_power();
+        if (!(power > 0.0)) continue;
+        PhotonStream s;
+        s.light = -1;
+        s.medium = static_cast<int>(i);
+        s.region_power = power;
+        s.key = mix64(0x454d4954ull * 0x100 + i);
+        s.name = "medium " + std::to_string(i) + " emission";
+        set.streams.push_back(s);
+    }
     return set;
+}
+
+bool sample_emission_stream(const StreamSet& set, int s, std::vector<Medium::Sampler>& media,
+                            Rng& rng, Ray* ray, Color* power) {
+    Vec3 x;
+    if (!media[set.streams[s].medium].sample_emission(rng, &x, power)) return false;
+    *ray = Ray{x, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()))};
+    return true;
 }
 
 bool sample_stream(const StreamSet& set, int s, const Scene& scene, Rng& rng, Ray* ray) {

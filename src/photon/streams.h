@@ -20,6 +20,8 @@
 // light y reflects along the line (one shadow ray each), so the ground's light reaches the media
 // through photons of comparable power. It stores volume photons only; the lights' streams keep
 // everything else (and all of a point, spot or quad light's paths, whose light falls near them).
+// Each emitting medium has one stream more, not partitioned: photons leave points drawn ∝ its
+// σ_a L_e (Medium::Sampler::sample_emission) in uniform directions.
 // Immutable after make_streams; thread-safe.
 
 #include "core/rng.h"
@@ -40,7 +42,8 @@ struct StreamTarget {
 };
 
 struct PhotonStream {
-    int light = 0;    ///< index into Scene::lights; -1 for the bounce stream
+    int light = 0;    ///< index into Scene::lights; -1 for the bounce and emission streams
+    int medium = -1;  ///< emission streams: index into Scene::media
     int target = -1;  ///< index into StreamSet::targets; -1: the rest of the light's paths
     double region_power = 0.0;  ///< W (channel average) of the region one attempt samples
     Color color{1.0f};          ///< the light's power per channel / its channel average
@@ -73,6 +76,12 @@ bool sample_stream(const StreamSet& set, int s, const Scene& scene, Rng& rng, Ra
 /// thread's samplers (for the shadow rays).
 bool sample_bounce(const StreamSet& set, int s, const Scene& scene,
                    std::vector<Medium::Sampler>& media, Rng& rng, Ray* ray, Color* power);
+
+/// One attempt of emission stream `s`: true, the photon's ray (from a point of the medium, uniform
+/// direction) and its relative power (colour, channel average 1), or false when the medium's
+/// emission sampling rejected the point. Draws only from rng; `media` are this thread's samplers.
+bool sample_emission_stream(const StreamSet& set, int s, std::vector<Medium::Sampler>& media,
+                            Rng& rng, Ray* ray, Color* power);
 
 /// True if the ray (unit direction, t > 0) meets the sphere.
 bool meets_sphere(const Ray& ray, const Vec3& center, float radius);

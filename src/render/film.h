@@ -23,11 +23,11 @@ namespace fogmap {
 
 /// Additive parts of the beauty image, each its own EXR layer. A new layer: one enumerator and
 /// its name below.
-enum class Layer { Direct, VolumeSingle, VolumeMultiple, Caustic, Indirect };
-inline constexpr int kLayerCount = 5;
+enum class Layer { Direct, VolumeSingle, VolumeMultiple, Caustic, Indirect, Emission };
+inline constexpr int kLayerCount = 6;
 /// EXR layer names, in Layer order.
 inline constexpr std::array<const char*, kLayerCount> kLayerNames{
-    "direct", "volume_single", "volume_multiple", "caustic", "indirect"};
+    "direct", "volume_single", "volume_multiple", "caustic", "indirect", "emission"};
 
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {

@@ -42,6 +42,7 @@ PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* gui
     : scene_(scene), max_depth_(max_depth), guide_(guide) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
+    for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
 }
 
 PathTracer::ThreadState PathTracer::make_state() const {
@@ -153,8 +154,11 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
         if (!ts.media.empty()) {
             if (has_point_lights_ && depth < max_depth_)
                 L += beta * point_lights_in_segment(ray, t_max, rng, ts);
-            const TrackResult tr =
-                delta_track(ts.media, ray, t_max, rng, &beta, Collision::Weighted);
+            Color emitted(0.0f);
+            const TrackResult tr = delta_track(ts.media, ray, t_max, rng, &beta,
+                                               Collision::Weighted,
+                                               emissive_ ? &emitted : nullptr);
+            L += emitted;
             if (tr.event == TrackEvent::Absorbed) break;
             if (tr.event == TrackEvent::Scattered) {
                 if (depth >= max_depth_) {

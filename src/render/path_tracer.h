@@ -4,7 +4,8 @@
 // ratio-tracked transmittance (point and spot lights in media: equi-angular samples per segment);
 // area, sun-disc and environment lights are combined with phase/BSDF sampling by multiple
 // importance sampling (power heuristic); Russian roulette once the throughput falls below 1;
-// max_depth caps the number of scattering/bounce vertices. Deterministic: pixel (x, y), sample s
+// max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
+// segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track). Deterministic: pixel (x, y), sample s
 // draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
@@ -45,6 +46,7 @@ private:
     int max_depth_;
     const VolumeGuide* guide_;
     bool has_point_lights_ = false;
+    bool emissive_ = false;  ///< some medium emits: camera paths collect σ_a L_e
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,

@@ -56,6 +56,7 @@ PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
       max_depth_(max_depth),
       beam_(build_beam(maps, gather, &precompute_s_)),
       volume_(scene, march, gather, maps.volume ? &*maps.volume : nullptr, beam_.get()) {
+    for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
     const Timer timer;
     if (!gather.final_gather || !maps.global || maps.global->tree.empty()) return;
     const std::vector<Photon>& photons = maps.global->tree.records();
@@ -114,6 +115,11 @@ Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
         const Ray ray{origin, sample_cosine_hemisphere(n, u)};
         ++ts.rays;
         const std::optional<SurfaceHit> hit = scene_.surfaces->intersect(ray, 0.0f, kInfinity);
+        if (emissive_) {  // the media's light reaching p directly (the map's photons at p are not
+                          // used here); the camera segment's march is done with, so st is free
+            volume_.march(ray, hit ? hit->t : kInfinity, Color(1.0f), rng.uniform(), ts);
+            sum += ts.emitted;
+        }
         if (!hit || hit->material < 0) continue;  // lights and sky are direct light, counted at p
         const Material& mat = scene_.materials[hit->material];
         if (mat.type != MaterialType::Diffuse) continue;  // gather stops at specular surfaces
@@ -141,6 +147,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
         }
         if (!ts.media.empty()) {
             const Color tau = volume_.march(ray, t_max, beta, rng.uniform(), ts);
+            out[Layer::Emission] += ts.emitted;
             out[Layer::VolumeSingle] += volume_.single_scattering(ray, beta, rng, ts);
             out[Layer::VolumeMultiple] += volume_.multiple_scattering(ray, beta, rng, ts);
             beta *= exp_neg(tau);

@@ -55,6 +55,7 @@ private:
     std::unique_ptr<Irradiance> irradiance_;
     std::unique_ptr<BeamTree> beam_;
     VolumeGather volume_;  ///< after beam_, which it points to
+    bool emissive_ = false;  ///< some medium emits: gather rays collect its emission
 };
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples

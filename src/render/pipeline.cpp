@@ -59,12 +59,13 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     PipelineResult out;
     Report& report = out.report;
     const Timer timer;
-    const Plan plan = make_plan(desc);
+    Plan plan = make_plan(desc);
+    const std::unique_ptr<const Scene> scene = load_scene(desc);
+    add_phase(&report, "load", timer.seconds());
+    describe_volume_light(*scene, &plan.volume_light);
     report.plan_text = plan_text(plan);
     report.plan = plan_json(plan);
     if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
-    const std::unique_ptr<const Scene> scene = load_scene(desc);
-    add_phase(&report, "load", timer.seconds());
 
     const ThreadLimit threads(desc.render.threads);
     const bool photon = desc.render.integrator == Integrator::Photon;

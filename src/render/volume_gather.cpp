@@ -32,10 +32,12 @@ Color VolumeGather::march(const Ray& ray, float t_max, const Color& beta, float 
                           State& st) const {
     Color tau(0.0f);
     st.steps.clear();
+    st.emitted = Color(0.0f);
     marcher_.march(st.media, ray, t_max, jitter, [&](const MarchStep& s) {
         const float h = s.t1 - s.t0;
         st.steps.push_back({s.t0, s.t1, s.x, tau, s.sigma_t, s.sigma_s,
                             beta * exp_neg(tau) * step_weight(s.sigma_t, h)});
+        st.emitted += st.steps.back().weight * s.emission;
         tau += s.sigma_t * h;
         return max_component(exp_neg(tau)) > 1e-6f;  // nothing visible beyond
     });

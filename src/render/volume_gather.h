@@ -47,12 +47,14 @@ public:
         std::vector<double> cdf;  ///< cumulative step weights
         uint64_t rays = 0;        ///< Embree queries of shadow rays
         uint64_t queries = 0;     ///< volume-map lookups (sphere) or photons visited (beam)
+        Color emitted{0.0f};      ///< the marched segment's emission, Σ weight σ_a L_e
     };
     State make_state() const;
 
     /// Marches `ray` (unit direction) on [0, t_max) from throughput `beta` into st.steps, with
     /// the sample point at `jitter` in [0, 1) of each step; stops where the transmittance falls
-    /// below 1e-6. Returns the optical depth of the part marched.
+    /// below 1e-6. Returns the optical depth of the part marched; st.emitted is the emission seen
+    /// along it (weighted by beta), σ_a L_e held constant per step like σ.
     Color march(const Ray& ray, float t_max, const Color& beta, float jitter, State& st) const;
 
     /// Single scattering over the marched segment (after march()).

@@ -1,5 +1,7 @@
 #include "scene/plan.h"
 
+#include "scene/scene.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cstddef>
@@ -103,6 +105,19 @@ PlanItem plan_marching(const SceneDesc& desc) {
     return on(count(desc.media.size(), "medium", "media") + "; " + how);
 }
 
+PlanItem plan_volume_light(const SceneDesc& desc) {
+    size_t n = 0;
+    for (const MediumDesc& m : desc.media) {
+        if (!m.emission || !(m.density_scale > 0.0f) || !(m.emission->scale > 0.0f)) continue;
+        // A blackbody's colour comes from its temperatures, known once the grid is read.
+        if (m.emission->kind != EmissionSource::Blackbody && !(max_component(m.emission->color) > 0.0f))
+            continue;
+        ++n;
+    }
+    if (n == 0) return off("no medium emits");
+    return on(count(n, "emissive medium", "emissive media"));
+}
+
 PlanItem plan_volume(const SceneDesc& desc) {
     if (desc.media.empty()) return off("no participating medium");
     size_t scattering = 0;
@@ -175,9 +190,10 @@ Plan make_plan(const SceneDesc& scene_desc) {
     plan.integrator_name = to_string(desc.render.integrator);
     plan.embree_scene = plan_embree(desc);
     plan.ray_marching = plan_marching(desc);
+    plan.volume_light = plan_volume_light(desc);
 
     // Conditions shared by all maps come first, so their reason is the same for the three.
-    bool any_emits = false;
+    bool any_emits = plan.volume_light.on;
     for (const LightDesc& l : desc.lights) any_emits = any_emits || emits(l);
     if (desc.render.integrator == Integrator::Path) {
         plan.volume_map = plan.global_map = plan.caustic_map = off("integrator is path");
@@ -196,6 +212,20 @@ Plan make_plan(const SceneDesc& scene_desc) {
     return plan;
 }
 
+void describe_volume_light(const Scene& scene, PlanItem* item) {
+    auto join = [](const std::vector<std::string>& lines) {
+        std::string s;
+        for (const std::string& l : lines) s += (s.empty() ? "" : "; ") + l;
+        return s;
+    };
+    if (item->on && !scene.emitters.empty()) {
+        item->reason = join(scene.emitters);
+    } else if (!item->on && !scene.emission_hints.empty()) {
+        item->reason += "; " + join(scene.emission_hints) +
+                        ": add \"emission\": {} to the medium to make it glow";
+    }
+}
+
 std::string plan_text(const Plan& plan) {
     const auto line = [](const char* name, const PlanItem& item, const char* on_word) {
         return std::string(name) + ": " + (item.on ? on_word : "skipped") + " (" + item.reason +
@@ -204,6 +234,7 @@ std::string plan_text(const Plan& plan) {
     return std::string("integrator: ") + plan.integrator_name + " (" + plan.integrator.reason +
            ")\n" + line("Embree scene", plan.embree_scene, "built") +
            line("ray marching", plan.ray_marching, "used") +
+           line("volume light", plan.volume_light, "built") +
            line("volume map", plan.volume_map, "built") +
            line("global map", plan.global_map, "built") +
            line("caustic map", plan.caustic_map, "built");
@@ -217,6 +248,7 @@ nlohmann::json plan_json(const Plan& plan) {
         {"integrator", {{"name", plan.integrator_name}, {"reason", plan.integrator.reason}}},
         {"embree_scene", item(plan.embree_scene)},
         {"ray_marching", item(plan.ray_marching)},
+        {"volume_light", item(plan.volume_light)},
         {"volume_map", item(plan.volume_map)},
         {"global_map", item(plan.global_map)},
         {"caustic_map", item(plan.caustic_map)}};

@@ -12,6 +12,8 @@
 
 namespace fogmap {
 
+struct Scene;
+
 /// One decision of the plan: on or off, and a one-line reason ("no specular surface").
 struct PlanItem {
     bool on = false;
@@ -43,6 +45,7 @@ struct Plan {
     const char* integrator_name = "photon";
     PlanItem embree_scene;
     PlanItem ray_marching;
+    PlanItem volume_light;
     PlanItem volume_map;
     PlanItem global_map;
     PlanItem caustic_map;
@@ -64,13 +67,19 @@ SceneDesc choose_integrator(SceneDesc desc);
 /// after choose_integrator. Never throws.
 Plan make_plan(const SceneDesc& desc);
 
-/// Six lines, each ending in '\n', in pipeline order: "integrator: path (scene)",
-/// "Embree scene: built (2 shapes)", "ray marching: used (...)", "volume map: built (...)",
+/// After load_scene: the volume light's reason becomes each emitter's source and power
+/// ("medium 0: blackbody from grid 'temperature' (found in the file), 2.1 W"); when off, a medium
+/// whose file has an emission grid it does not use is named, with how to use it.
+void describe_volume_light(const Scene& scene, PlanItem* item);
+
+/// Seven lines, each ending in '\n', in pipeline order: "integrator: path (scene)",
+/// "Embree scene: built (2 shapes)", "ray marching: used (...)", "volume light: skipped (...)",
+/// "volume map: built (...)",
 /// "global map: ...", "caustic map: skipped (no specular surface)".
 std::string plan_text(const Plan& plan);
 
 /// {"integrator": {"on": true, "reason": "..."}, "embree_scene": ..., "ray_marching": ...,
-/// "volume_map": ..., "global_map": ..., "caustic_map": ...} for the report's JSON output.
+/// "volume_light": ..., "volume_map": ..., "global_map": ..., "caustic_map": ...} for the report's JSON output.
 nlohmann::json plan_json(const Plan& plan);
 
 }  // namespace fogmap

@@ -2,8 +2,11 @@
 
 #include "core/error.h"
 #include "core/world_range.h"
+#include "media/blackbody.h"
 #include "media/ray_march.h"
 
+#include <algorithm>
+#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -107,7 +110,77 @@ void check_march_steps(const SceneDesc& desc, const std::vector<Medium>& media) 
     }
 }
 
+using GridCache = std::map<std::pair<std::string, std::string>, std::shared_ptr<const DensityGrid>>;
+
+constexpr std::array<const char*, 4> kEmissionGridNames{"temperature", "heat", "flame", "flames"};
+
+/// The first of kEmissionGridNames that `names` holds, or "".
+std::string find_emission_grid(const std::vector<std::string>& names) {
+    for (const char* want : kEmissionGridNames)
+        if (std::find(names.begin(), names.end(), want) != names.end()) return want;
+    return "";
+}
+
+/// Makes scene medium `medium` (desc medium i, its VDB file at `path`; "" for a homogeneous one)
+/// emit as desc says: the grid named, else one of kEmissionGridNames found in the file, else a
+/// constant. Returns the Plan's line for it (without the power).
+std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& path,
+                            GridCache* grids, Medium* medium) {
+    const MediumDesc& m = desc.media[i];
+    const EmissionDesc& e = *m.emission;
+    const std::string field = "/media/" + std::to_string(i) + "/emission";
+    EmissionParams p{EmissionKind::Constant, e.color, e.scale, e.temperature_scale,
+                     e.temperature_offset};
+    std::string grid = e.grid;
+    bool found = false;
+    if (!path.empty() && grid.empty() && e.kind != EmissionSource::Constant) {
+        const std::vector<std::string> names = vdb_grid_names(path, field);
+        grid = find_emission_grid(names);
+        found = !grid.empty();
+        if (!found && e.kind != EmissionSource::Auto) {
+            std::string list;
+            for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+            throw InputError(path, field + "/grid",
+                             "no emission grid: kind \"" + std::string(to_string(e.kind)) +
+                                 "\" needs a grid, none is named and the file has none of "
+                                 "temperature, heat, flame, flames (grids present: " +
+                                 list + "); name one with \"grid\"");
+        }
+    }
+    const std::string name = "medium " + std::to_string(i) + ": ";
+    if (grid.empty()) {
+        medium->set_emission(Emission::constant(p), Mat4(1.0f));
+        return name + "constant";
+    }
+    p.kind = e.kind == EmissionSource::Blackbody ? EmissionKind::Blackbody
+             : e.kind == EmissionSource::Scalar  ? EmissionKind::Scalar
+             : grid == "temperature"              ? EmissionKind::Blackbody
+                                                  : EmissionKind::Scalar;
+    std::shared_ptr<const DensityGrid>& g = (*grids)[{path, grid}];
+    if (!g) g = DensityGrid::load(path, grid, field + "/grid");
+    Emission emission = Emission::from_grid(p, g);
+    if (emission.max_kelvin() > kMaxKelvin) {
+        char text[300];
+        std::snprintf(text, sizeof text,
+                      "temperatures reach %.3g K (grid '%s' up to %g × temperature_scale %g + "
+                      "temperature_offset %g); expected at most %g K: set temperature_scale so "
+                      "that the grid's values map to kelvin",
+                      emission.max_kelvin(), grid.c_str(), double(g->max_density()),
+                      double(e.temperature_scale), double(e.temperature_offset), kMaxKelvin);
+        throw InputError(desc.path, field, text);
+    }
+    medium->set_emission(std::move(emission), m.transform.matrix);
+    return name + (p.kind == EmissionKind::Blackbody ? "blackbody" : "scalar") + " from grid '" +
+           grid + "'" + (found ? " (found in the file)" : "");
+}
+
 }  // namespace
+
+double emitted_power(const Scene& scene) {
+    double sum = 0.0;
+    for (const Medium& m : scene.media) sum += m.emitted_power();
+    return sum;
+}
 
 std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
     auto scene = std::make_unique<Scene>();
@@ -184,7 +257,8 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         throw InputError(
             desc.path, "/media",
             "found " + std::to_string(desc.media.size()) + " media; at most 16 are supported");
-    std::map<std::pair<std::string, std::string>, std::shared_ptr<const DensityGrid>> grids;
+    GridCache grids;
+    std::vector<std::string> emitters(desc.media.size());
     for (size_t i = 0; i < desc.media.size(); ++i) {
         const MediumDesc& m = desc.media[i];
         if (m.type != MediumType::Vdb) continue;
@@ -192,6 +266,15 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         auto& grid = grids[{path, m.grid}];
         if (!grid) grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
+        if (m.emission) {
+            emitters[i] = attach_emission(desc, i, path, &grids, &scene->media.back());
+        } else {
+            const std::string hint =
+                find_emission_grid(vdb_grid_names(path, "/media/" + std::to_string(i)));
+            if (!hint.empty())
+                scene->emission_hints.push_back("medium " + std::to_string(i) +
+                                                "'s file has grid '" + hint + "'");
+        }
         const Box3& bounds = scene->media.back().world_bounds();
         if (!grid->empty())
             check_world(desc, "/media/" + std::to_string(i) + "/transform", bounds,
@@ -215,6 +298,21 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         }
         scene->media.push_back(Medium::homogeneous(medium_params(m), bounds));
         check_resolvable(scene->media.back(), desc, i);
+        if (m.emission)
+            emitters[i] = attach_emission(desc, i, "", &grids, &scene->media.back());
+    }
+    // The Plan's lines, in scene order, with each medium's power (scene->media holds the VDB
+    // media first).
+    const size_t n_vdb = static_cast<size_t>(
+        std::count_if(desc.media.begin(), desc.media.end(),
+                      [](const MediumDesc& d) { return d.type == MediumType::Vdb; }));
+    for (size_t i = 0, vdb = 0, homogeneous = 0; i < desc.media.size(); ++i) {
+        const bool is_vdb = desc.media[i].type == MediumType::Vdb;
+        const Medium& medium = scene->media[is_vdb ? vdb++ : n_vdb + homogeneous++];
+        if (emitters[i].empty()) continue;
+        char power[64];
+        std::snprintf(power, sizeof power, ", %.3g W", medium.emitted_power());
+        scene->emitters.push_back(emitters[i] + power);
     }
     for (const Medium& m : scene->media) scene->bounds.extend(m.world_bounds());
     check_light_powers(desc, scene->bounds);

@@ -11,6 +11,7 @@
 #include "surface/material.h"
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace fogmap {
@@ -24,7 +25,16 @@ struct Scene {
     Box3 bounds;  ///< surfaces, media, camera and point/spot light positions
     /// Least distance a ray leaves a surface by (offset_point): 1e-6 of the bounds' diagonal.
     float offset_floor = 1e-6f;
+    /// One line per emitting medium, in scene order: "medium 0: blackbody from grid
+    /// 'temperature' (found in the file), 2.1 W". For the Plan.
+    std::vector<std::string> emitters;
+    /// VDB media without "emission" whose file has a grid named temperature, heat, flame or
+    /// flames: "medium 0's file has grid 'temperature'". For the Plan.
+    std::vector<std::string> emission_hints;
 };
+
+/// Σ over media of emitted_power (W).
+double emitted_power(const Scene& scene);
 
 /// Opens mesh and VDB files and builds Embree. A homogeneous medium without "bounds" fills the
 /// bounds of the rest of the scene. Throws InputError{desc.path or the data file, field, reason}.

@@ -71,6 +71,20 @@ struct ShapeDesc {
 
 enum class MediumType { Vdb, Homogeneous };
 
+/// What "emission" of a medium draws L_e from (media/emission.h). auto: blackbody for a grid named
+/// temperature, scalar for another grid, constant without a grid (a VDB medium first looks for a
+/// grid named temperature, heat, flame or flames in its file, in that order).
+enum class EmissionSource { Auto, Blackbody, Scalar, Constant };
+
+struct EmissionDesc {
+    EmissionSource kind = EmissionSource::Auto;
+    std::string grid;                 ///< float grid of the medium's file; "" = look for one
+    Color color{1.0f};                ///< scalar: radiance per grid unit; constant: L_e
+    float scale = 1.0f;               ///< multiplies L_e (>= 0)
+    float temperature_scale = 1.0f;   ///< blackbody: kelvin per grid unit (>= 0)
+    float temperature_offset = 0.0f;  ///< blackbody: kelvin added
+};
+
 struct MediumDesc {
     MediumType type = MediumType::Vdb;
     std::string file;              ///< vdb: path relative to the scene file
@@ -82,6 +96,7 @@ struct MediumDesc {
     float g = 0.0f;                ///< Henyey-Greenstein asymmetry in (-1, 1)
     std::optional<Box3>
         bounds;  ///< homogeneous: box ("bounds": {"min","max"}); absent = whole scene
+    std::optional<EmissionDesc> emission;  ///< absent: the medium does not emit
 };
 
 /// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with scattering
@@ -181,6 +196,7 @@ const char* to_string(LightType t);
 const char* to_string(MaterialType t);
 const char* to_string(ShapeType t);
 const char* to_string(MediumType t);
+const char* to_string(EmissionSource t);
 const char* to_string(Integrator t);
 const char* to_string(VolumeEstimator t);
 const char* to_string(FreePathMethod t);

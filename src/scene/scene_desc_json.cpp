@@ -26,6 +26,9 @@ constexpr std::array<MaterialType, 3> kMaterialTypes{MaterialType::Diffuse, Mate
 constexpr std::array<ShapeType, 4> kShapeTypes{ShapeType::Quad, ShapeType::Box, ShapeType::Sphere,
                                                ShapeType::Mesh};
 constexpr std::array<MediumType, 2> kMediumTypes{MediumType::Vdb, MediumType::Homogeneous};
+constexpr std::array<EmissionSource, 4> kEmissionSources{
+    EmissionSource::Auto, EmissionSource::Blackbody, EmissionSource::Scalar,
+    EmissionSource::Constant};
 constexpr std::array<Integrator, 4> kIntegrators{Integrator::Auto, Integrator::Path,
                                                 Integrator::Photon, Integrator::Guided};
 constexpr std::array<VolumeEstimator, 2> kVolumeEstimators{VolumeEstimator::Sphere,
@@ -116,6 +119,16 @@ void shape_fields(S& s, V& v) {
     v.transform("transform", s.transform);
 }
 
+template <class E, class V>
+void emission_fields(E& e, V& v) {
+    v.choice("kind", e.kind, kEmissionSources, "emission kind");
+    v.value("grid", e.grid);
+    v.color("color", e.color);
+    v.value("scale", e.scale);
+    v.value("temperature_scale", e.temperature_scale);
+    v.value("temperature_offset", e.temperature_offset);
+}
+
 template <class M, class V>
 void medium_fields(M& m, V& v) {
     switch (m.type) {
@@ -132,6 +145,7 @@ void medium_fields(M& m, V& v) {
     v.color("sigma_s", m.sigma_s);
     v.color("sigma_a", m.sigma_a);
     v.value("g", m.g);
+    v.object("emission", m.emission, [](auto& e, auto& f) { emission_fields(e, f); });
 }
 
 template <class R, class V>
@@ -265,6 +279,15 @@ struct FieldReader {
         br.finish();
         b = box;
     }
+    template <class T, class F>
+    void object(const char* key, std::optional<T>& x, F fields) {
+        const json* v = r.find(key);
+        if (!v) return;
+        JsonReader sub(*v, r.file(), r.pointer(key));
+        FieldReader f{sub};
+        fields(x.emplace(), f);
+        sub.finish();
+    }
 };
 
 /// Reads an array member; absent = empty.
@@ -332,6 +355,14 @@ struct FieldWriter {
     void transform(const char* key, const TransformDesc& t) { j[key] = transform_json(t); }
     void bounds(const char* key, const std::optional<Box3>& b) {
         if (b) j[key] = json{{"min", vec_json(b->lo)}, {"max", vec_json(b->hi)}};
+    }
+    template <class T, class F>
+    void object(const char* key, const std::optional<T>& x, F fields) {
+        if (!x) return;
+        json sub = json::object();
+        FieldWriter w{sub};
+        fields(*x, w);
+        j[key] = sub;
     }
 };
 

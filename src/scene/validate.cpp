@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/world_range.h"
+#include "media/blackbody.h"
 
 #include <cmath>
 #include <cstdio>
@@ -57,6 +58,20 @@ const char* to_string(MediumType t) {
             return "vdb";
         case MediumType::Homogeneous:
             return "homogeneous";
+    }
+    return "?";
+}
+
+const char* to_string(EmissionSource t) {
+    switch (t) {
+        case EmissionSource::Auto:
+            return "auto";
+        case EmissionSource::Blackbody:
+            return "blackbody";
+        case EmissionSource::Scalar:
+            return "scalar";
+        case EmissionSource::Constant:
+            return "constant";
     }
     return "?";
 }
@@ -382,6 +397,32 @@ void check_shape(const SceneDesc& desc, size_t i) {
     if (!world.empty()) k.world_box("transform", world, "the transformed shape");
 }
 
+/// The emission's own ranges, and what it needs of its medium; the hottest temperature is checked
+/// at load (scene.cpp), where the grid's values are known.
+void check_emission(const SceneDesc& desc, size_t i) {
+    const MediumDesc& m = desc.media[i];
+    const EmissionDesc& e = *m.emission;
+    const Checker k(desc, "/media/" + std::to_string(i) + "/emission");
+    k.non_negative("color", e.color);
+    k.non_negative("scale", e.scale);
+    k.non_negative("temperature_scale", e.temperature_scale);
+    if (!std::isfinite(e.temperature_offset) || std::abs(e.temperature_offset) > kMaxKelvin)
+        k.fail("temperature_offset", "temperature_offset must be finite, within ±" +
+                                         num(kMaxKelvin) + " K; found " +
+                                         num(e.temperature_offset));
+    const bool grid_kind =
+        e.kind == EmissionSource::Blackbody || e.kind == EmissionSource::Scalar;
+    if (m.type == MediumType::Homogeneous && (grid_kind || !e.grid.empty()))
+        k.fail(e.grid.empty() ? "kind" : "grid",
+               "a homogeneous medium has no grids to emit from; expected kind \"constant\" (or "
+               "\"auto\") and no grid");
+    if (e.kind == EmissionSource::Constant && !e.grid.empty())
+        k.fail("grid", "kind \"constant\" takes no grid; found grid \"" + e.grid + "\"");
+    if (max_component(m.sigma_a) <= 0.0f)
+        k.fail("", "the medium emits σ_a·L_e and its sigma_a is 0, so it would emit nothing; give "
+                   "sigma_a > 0 (the emission's strength is sigma_a × density × L_e)");
+}
+
 void check_medium(const SceneDesc& desc, size_t i) {
     const MediumDesc& m = desc.media[i];
     const Checker k(desc, "/media/" + std::to_string(i));
@@ -402,6 +443,7 @@ void check_medium(const SceneDesc& desc, size_t i) {
     if (!std::isfinite(m.g) || m.g <= -1.0f || m.g >= 1.0f) {
         k.fail("g", "g must be in (-1, 1); found " + num(m.g));
     }
+    if (m.emission) check_emission(desc, i);
     switch (m.type) {
         case MediumType::Vdb:
             if (m.file.empty()) k.fail("file", "file is empty; expected a .vdb path");

@@ -54,12 +54,12 @@ std::vector<std::string> lines(const std::string& text) {
     return out;
 }
 
-/// plan_text's line for one item; the order is fixed: integrator, Embree, marching, volume,
-/// global, caustic.
-enum Line { kIntegrator = 0, kEmbree, kMarching, kVolume, kGlobal, kCaustic };
+/// plan_text's line for one item; the order is fixed: integrator, Embree, marching, volume light,
+/// volume map, global, caustic.
+enum Line { kIntegrator = 0, kEmbree, kMarching, kVolumeLight, kVolume, kGlobal, kCaustic };
 std::string line(const Plan& plan, Line which) {
     const std::vector<std::string> all = lines(plan_text(plan));
-    return all.size() == 6 ? all[size_t(which)] : "plan_text has " + std::to_string(all.size());
+    return all.size() == 7 ? all[size_t(which)] : "plan_text has " + std::to_string(all.size());
 }
 
 TEST(Plan, SmokeOnlyHasNoSurfaceMapsAndNoEmbreeScene) {
@@ -146,6 +146,29 @@ TEST(Plan, MediaThatDoNotScatterGetNoVolumeMap) {
     EXPECT_EQ(line(p, kMarching), "ray marching: skipped (no medium)");
 }
 
+TEST(Plan, FireAloneLightsTheMaps) {
+    // No light at all: an emitting medium is a light source of its own, for every map.
+    json doc = glass_floor_fog();
+    doc["lights"] = json::array();
+    doc["media"][0]["emission"] = json::parse(R"({"color": [1, 0.5, 0.1]})");
+    const Plan p = make_plan(scene(doc));
+    EXPECT_EQ(line(p, kVolumeLight), "volume light: built (1 emissive medium)");
+    EXPECT_TRUE(p.volume_map.on) << p.volume_map.reason;
+    EXPECT_TRUE(p.global_map.on) << p.global_map.reason;
+    EXPECT_TRUE(p.caustic_map.on) << p.caustic_map.reason;
+}
+
+TEST(Plan, EmissionWithoutStrengthIsNoVolumeLight) {
+    json doc = glass_floor_fog();
+    doc["lights"] = json::array();
+    for (const char* e : {R"({"color": [1, 0.5, 0.1], "scale": 0})", R"({"color": 0})"}) {
+        doc["media"][0]["emission"] = json::parse(e);
+        const Plan p = make_plan(scene(doc));
+        EXPECT_EQ(line(p, kVolumeLight), "volume light: skipped (no medium emits)") << e;
+        EXPECT_EQ(line(p, kVolume), "volume map: skipped (no light emits power)") << e;
+    }
+}
+
 TEST(Plan, ZeroPowerLightsBuildNoMaps) {
     // Each light type's own power quantity decides; the others keep their defaults (1), so a
     // rule reading the wrong field would see power here.
@@ -226,6 +249,7 @@ TEST(Plan, GlassFloorAndFogTurnEverythingOn) {
               "integrator: photon (scene)\n"
               "Embree scene: built (2 shapes)\n"
               "ray marching: used (1 medium; camera rays and photon free paths march)\n"
+              "volume light: skipped (no medium emits)\n"
               "volume map: built (1 scattering medium, budget 100000 photons)\n"
               "global map: built (1 diffuse shape, budget 100000 photons)\n"
               "caustic map: built (1 specular shape, 1 diffuse receiver, budget 50000 photons)\n");
@@ -297,6 +321,7 @@ TEST(Plan, JsonHasOneEntryPerItem) {
       "integrator": {"name": "photon", "reason": "scene"},
       "embree_scene": {"on": false, "reason": "no surfaces"},
       "ray_marching": {"on": true, "reason": "1 medium; camera rays and photon free paths march"},
+      "volume_light": {"on": false, "reason": "no medium emits"},
       "volume_map": {"on": true, "reason": "1 scattering medium, budget 100000 photons"},
       "global_map": {"on": false, "reason": "no diffuse surface"},
       "caustic_map": {"on": false, "reason": "no specular surface"}

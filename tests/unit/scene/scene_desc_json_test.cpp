@@ -258,8 +258,8 @@ TEST(SceneDescJson, FieldsOfAnotherTypeAreUnknownKeys) {
                                                       "file": "x.vdb"}]})"));
     EXPECT_EQ(h.field, "/media/0/file");
     EXPECT_EQ(h.reason,
-              "unknown key 'file'; known keys: bounds, density_scale, g, sigma_a, "
-              "sigma_s, type");
+              "unknown key 'file'; known keys: bounds, density_scale, emission, g, "
+              "sigma_a, sigma_s, type");
 }
 
 TEST(SceneDescJson, WrongTypeNamesPointerAndFoundValue) {
