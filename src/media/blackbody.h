@@ -25,7 +25,8 @@ double planck_total(double kelvin);
 /// Functions" (JCGT 2013).
 DVec3 cie_1931(double lambda_nm);
 
-/// Tristimulus values X, Y, Z of Planck's spectrum at T: ∫ B x̄ dλ ... over 360–830 nm (1 nm).
+/// Tristimulus values X, Y, Z of Planck's spectrum at T: ∫ B x̄ dλ ... over 360–830 nm in 5 nm
+/// steps (CIE 15's practice).
 DVec3 blackbody_xyz(double kelvin);
 
 /// CIE XYZ → linear Rec.709 (sRGB primaries, D65 white), IEC 61966-2-1's matrix.

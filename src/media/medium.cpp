@@ -60,58 +60,102 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
         world_to_emission_index_ =
             glm::inverse(scene_transform * to_float(eg->index_to_world()));
     emission_cells_.clear();
-    emission_bounds_.clear();
+    emission_cell_begin_.assign(1, 0);
     emission_cdf_.clear();
+    unit_local_.clear();
+    unit_bounds_.clear();
+    unit_cdf_.clear();
     emitted_power_ = emission_bound_power_ = 0.0;
-    // Bound of average(L_e) over a world box: the emission grid's majorant cells it overlaps.
-    auto emission_bound = [&](const Box3& world_box) {
-        if (!eg) return emission_->average_bound(0.0f);
-        if (eg->empty()) return 0.0f;
-        const Box3 b = transform_box(world_to_emission_index_, world_box);
-        const MajorantGrid& em = eg->majorants();
-        std::array<int, 3> lo{}, hi{};
-        for (int a = 0; a < 3; ++a) {
-            const float c0 = std::floor((b.lo[a] - float(em.origin[a])) / float(em.cell));
-            const float c1 = std::floor((b.hi[a] - float(em.origin[a])) / float(em.cell));
-            if (!(c1 >= 0.0f) || !(c0 < float(em.dims[a]))) return 0.0f;
-            lo[a] = static_cast<int>(std::max(c0, 0.0f));
-            hi[a] = static_cast<int>(std::min(c1, float(em.dims[a] - 1)));
-        }
-        float v_max = 0.0f;
-        for (int k = lo[2]; k <= hi[2]; ++k)
-            for (int j = lo[1]; j <= hi[1]; ++j)
-                for (int i = lo[0]; i <= hi[0]; ++i) v_max = std::max(v_max, em.at(i, j, k));
-        return emission_->average_bound(v_max);
-    };
     const float sigma_a_max = max_component(params_.sigma_a);
     double total = 0.0;
-    auto add_cell = [&](uint32_t cell, float bound) {
-        if (!(bound > 0.0f)) return;
-        emission_cells_.push_back(cell);
-        emission_bounds_.push_back(bound);
-        emission_cdf_.push_back(total += double(bound) * cell_volume_);
-    };
-    if (!grid_) {
+    if (!grid_) {  // one cell, one unit: the box, where the bound is exact
         if (world_bounds_.empty()) return;
         const Vec3 e = world_bounds_.extent();
-        cell_volume_ = double(e.x) * e.y * e.z;
-        add_cell(0, sigma_a_max * emission_bound(world_bounds_));
+        unit_volume_ = double(e.x) * e.y * e.z;
+        const float bound = sigma_a_max * emission_->average_bound(0.0f);
+        if (!(bound > 0.0f)) return;
+        emission_cells_.push_back(0);
+        unit_local_.push_back(0);
+        unit_bounds_.push_back(bound);
+        unit_cdf_.push_back(bound);
+        emission_cell_begin_.push_back(1);
+        emission_cdf_.push_back(total = double(bound) * unit_volume_);
     } else {
         if (grid_->empty()) return;
+        Sampler s(*this);
         const MajorantGrid& maj = grid_->majorants();
-        cell_volume_ = std::pow(double(maj.cell), 3) * std::abs(glm::determinant(index_to_world_));
+        unit_volume_ = std::abs(double(glm::determinant(index_to_world_)));
+        const Mat4 index_to_emission = world_to_emission_index_ * index_to_world_;
+        // Bound of average(L_e) over the unit cell at density index `lo`: the emission voxels
+        // around its image (a trilinear sample is a convex combination of those), or, when that
+        // image spans many emission voxels, the emission majorant cells it overlaps.
+        auto emission_bound = [&](const Vec3& lo) {
+            if (!eg) return emission_->average_bound(0.0f);
+            const Box3 b = transform_box(index_to_emission, Box3{lo, lo + Vec3(1.0f)});
+            std::array<int, 3> v0{}, v1{};
+            double lattice = 1.0;
+            for (int a = 0; a < 3; ++a) {
+                const float lo_a = std::floor(b.lo[a]), hi_a = std::ceil(b.hi[a]);
+                if (!(hi_a >= -2e9f && lo_a <= 2e9f)) return 0.0f;  // far outside any grid
+                v0[a] = static_cast<int>(lo_a);
+                v1[a] = static_cast<int>(hi_a);
+                lattice *= double(v1[a] - v0[a] + 1);
+            }
+            float v_max = 0.0f;
+            if (lattice <= 512.0) {
+                for (int z = v0[2]; z <= v1[2]; ++z)
+                    for (int y = v0[1]; y <= v1[1]; ++y)
+                        for (int x = v0[0]; x <= v1[0]; ++x)
+                            v_max = std::max(v_max, s.emission_sampler_->density(Vec3(x, y, z)));
+                return emission_->average_bound(v_max);
+            }
+            const MajorantGrid& em = eg->majorants();
+            std::array<int, 3> c0{}, c1{};
+            for (int a = 0; a < 3; ++a) {
+                c0[a] = std::max(0, (v0[a] - em.origin[a]) / em.cell - 1);
+                c1[a] = std::min(em.dims[a] - 1, (v1[a] - em.origin[a]) / em.cell + 1);
+                if (c0[a] > c1[a]) return 0.0f;
+            }
+            for (int k = c0[2]; k <= c1[2]; ++k)
+                for (int j = c0[1]; j <= c1[1]; ++j)
+                    for (int i = c0[0]; i <= c1[0]; ++i) v_max = std::max(v_max, em.at(i, j, k));
+            return emission_->average_bound(v_max);
+        };
+        constexpr int kC = DensityGrid::kMajorantCell, kE = kC + 1;
+        std::array<float, kE * kE * kE> d;  // density at the cell's 9³ voxels
         uint32_t n = 0;
         for (int k = 0; k < maj.dims[2]; ++k)
             for (int j = 0; j < maj.dims[1]; ++j)
                 for (int i = 0; i < maj.dims[0]; ++i, ++n) {
-                    const float d_max = maj.max_density[n];
-                    if (!(d_max > 0.0f)) continue;
-                    Box3 box;
-                    box.lo = Vec3(maj.origin[0] + maj.cell * i, maj.origin[1] + maj.cell * j,
-                                  maj.origin[2] + maj.cell * k);
-                    box.hi = box.lo + Vec3(float(maj.cell));
-                    add_cell(n, d_max * sigma_a_max *
-                                    emission_bound(transform_box(index_to_world_, box)));
+                    if (!(maj.max_density[n] > 0.0f)) continue;
+                    const Vec3 o(maj.origin[0] + kC * i, maj.origin[1] + kC * j,
+                                 maj.origin[2] + kC * k);
+                    for (int z = 0; z < kE; ++z)
+                        for (int y = 0; y < kE; ++y)
+                            for (int x = 0; x < kE; ++x)
+                                d[(z * kE + y) * kE + x] =
+                                    s.grid_sampler_->density(o + Vec3(x, y, z));
+                    float cell_sum = 0.0f;
+                    for (int u = 0; u < kC * kC * kC; ++u) {
+                        const int x = u % kC, y = (u / kC) % kC, z = u / (kC * kC);
+                        // Trilinear inside the unit cell: a convex combination of its corners.
+                        float d_max = 0.0f;
+                        for (int c = 0; c < 8; ++c)
+                            d_max = std::max(
+                                d_max, d[((z + (c >> 2)) * kE + y + ((c >> 1) & 1)) * kE + x +
+                                         (c & 1)]);
+                        if (!(d_max > 0.0f)) continue;
+                        const float bound =
+                            d_max * sigma_a_max * emission_bound(o + Vec3(x, y, z));
+                        if (!(bound > 0.0f)) continue;
+                        unit_local_.push_back(static_cast<uint16_t>(u));
+                        unit_bounds_.push_back(bound);
+                        unit_cdf_.push_back(cell_sum += bound);
+                    }
+                    if (unit_local_.size() == emission_cell_begin_.back()) continue;
+                    emission_cells_.push_back(n);
+                    emission_cell_begin_.push_back(static_cast<uint32_t>(unit_local_.size()));
+                    emission_cdf_.push_back(total += double(cell_sum) * unit_volume_);
                 }
     }
     emission_bound_power_ = 4.0 * kPi * total;
@@ -122,10 +166,9 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
     double accepted = 0.0;
     for (int i = 0; i < kSamples; ++i) {
         Rng rng(0x454d495353ull, static_cast<uint64_t>(i));
-        size_t cell;
-        const Vec3 p = s.emission_point(rng, &cell);
-        accepted += average(s.density(p) * params_.sigma_a * s.emission(p)) /
-                    double(emission_bounds_[cell]);
+        float bound;
+        const Vec3 p = s.emission_point(rng, &bound);
+        accepted += average(s.density(p) * params_.sigma_a * s.emission(p)) / double(bound);
     }
     emitted_power_ = emission_bound_power_ * accepted / kSamples;
 }
@@ -149,33 +192,38 @@ Color Medium::Sampler::emission(const Vec3& p_world) {
         emission_sampler_->density(transform_point(m.world_to_emission_index_, p_world)));
 }
 
-Vec3 Medium::Sampler::emission_point(Rng& rng, size_t* cell) {
+Vec3 Medium::Sampler::emission_point(Rng& rng, float* bound) {
     const Medium& m = *medium_;
-    const double u = rng.uniform_double() * m.emission_cdf_.back();
-    *cell = std::min<size_t>(
-        std::upper_bound(m.emission_cdf_.begin(), m.emission_cdf_.end(), u) -
-            m.emission_cdf_.begin(),
-        m.emission_cdf_.size() - 1);
+    const auto pick = [](auto begin, auto end, double u) {  // the first entry above u
+        return static_cast<size_t>(std::min(std::upper_bound(begin, end, u), end - 1) - begin);
+    };
+    const size_t cell = pick(m.emission_cdf_.begin(), m.emission_cdf_.end(),
+                             rng.uniform_double() * m.emission_cdf_.back());
+    const auto units = m.unit_cdf_.begin() + m.emission_cell_begin_[cell];
+    const auto units_end = m.unit_cdf_.begin() + m.emission_cell_begin_[cell + 1];
+    const size_t unit = m.emission_cell_begin_[cell] +
+                        pick(units, units_end, rng.uniform_double() * *(units_end - 1));
+    *bound = m.unit_bounds_[unit];
     const Vec3 q(rng.uniform(), rng.uniform(), rng.uniform());
     if (!m.grid_) return m.world_bounds_.lo + q * m.world_bounds_.extent();
     const MajorantGrid& maj = m.grid_->majorants();
-    const uint32_t n = m.emission_cells_[*cell];
-    const int i = static_cast<int>(n % maj.dims[0]);
-    const int j = static_cast<int>((n / maj.dims[0]) % maj.dims[1]);
-    const int k = static_cast<int>(n / (uint32_t(maj.dims[0]) * maj.dims[1]));
-    const Vec3 p_index(maj.origin[0] + maj.cell * (i + q.x), maj.origin[1] + maj.cell * (j + q.y),
-                       maj.origin[2] + maj.cell * (k + q.z));
+    const uint32_t n = m.emission_cells_[cell];
+    const int u = m.unit_local_[unit], kC = maj.cell;
+    const Vec3 cell_index(n % maj.dims[0], (n / maj.dims[0]) % maj.dims[1],
+                          n / (uint32_t(maj.dims[0]) * maj.dims[1]));
+    const Vec3 p_index = Vec3(maj.origin[0], maj.origin[1], maj.origin[2]) +
+                         float(kC) * cell_index + Vec3(u % kC, (u / kC) % kC, u / (kC * kC)) + q;
     return transform_point(m.index_to_world_, p_index);
 }
 
 bool Medium::Sampler::sample_emission(Rng& rng, Vec3* p_world, Color* color) {
     const Medium& m = *medium_;
     if (m.emission_cells_.empty()) return false;
-    size_t cell;
-    const Vec3 p = emission_point(rng, &cell);
+    float bound;
+    const Vec3 p = emission_point(rng, &bound);
     const Color f = density(p) * m.params_.sigma_a * emission(p);
     const float a = average(f);
-    if (!(a > 0.0f) || rng.uniform() * m.emission_bounds_[cell] >= a) return false;
+    if (!(a > 0.0f) || rng.uniform() * bound >= a) return false;
     *p_world = p;
     *color = f / a;
     return true;

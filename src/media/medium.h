@@ -70,8 +70,11 @@ public:
         float density(const Vec3& p_world);
         /// L_e at a world point (0 outside the emission grid or when the medium does not emit).
         Color emission(const Vec3& p_world);
-        /// One attempt at a point ∝ average(σ_a L_e): a majorant cell ∝ its bound × volume, a
-        /// uniform point in it, kept with probability average(σ_a L_e)(x) / bound. True, the point
+        /// One attempt at a point ∝ average(σ_a L_e): a majorant cell, then a voxel-sized unit
+        /// cell in it (corners at voxel centres), each ∝ its bound × volume, a uniform point in
+        /// that, kept with probability average(σ_a L_e)(x) / the unit's bound. Unit bounds are
+        /// exact maxima of the density (trilinear: the largest of the 8 corners) times bounds of
+        /// L_e from the emission voxels around the unit's image in the emission grid. True, the point
         /// and the colour σ_a L_e / average(σ_a L_e) there, or false (rejected). Draws only from rng.
         bool sample_emission(Rng& rng, Vec3* p_world, Color* color);
         /// Starts a walk of tentative collisions of the majorant process along the ray on
@@ -104,8 +107,9 @@ public:
     private:
         friend class Medium;
         bool next_segment();
-        /// A tentative emission point: a cell ∝ bound × volume (its index in *cell), uniform in it.
-        Vec3 emission_point(Rng& rng, size_t* cell);
+        /// A tentative emission point: a unit cell ∝ bound × volume (its bound in *bound),
+        /// uniform in it.
+        Vec3 emission_point(Rng& rng, float* bound);
         const Medium* medium_;
         std::optional<DensityGrid::Sampler> grid_sampler_;
         std::optional<DensityGrid::Sampler> emission_sampler_;
@@ -136,12 +140,17 @@ private:
     float voxel_world_ = 0.0f;
     std::optional<Emission> emission_;
     Mat4 world_to_emission_index_{1.0f};
-    /// Emission sampling: majorant cells (index into the majorant grid; 0 for a homogeneous
-    /// medium's box) with their bound of average(σ_a L_e), and the cumulative bound × volume.
+    /// Emission sampling, two levels: majorant cells (index into the majorant grid; 0 for a
+    /// homogeneous medium's box) with the cumulative Σ bound × volume of their units; units
+    /// [emission_cell_begin_[c], emission_cell_begin_[c + 1]) of cell c: local index (x + 8y +
+    /// 64z), bound of average(σ_a L_e), and cumulative bound within the cell.
     std::vector<uint32_t> emission_cells_;
-    std::vector<float> emission_bounds_;
+    std::vector<uint32_t> emission_cell_begin_;
     std::vector<double> emission_cdf_;
-    double cell_volume_ = 0.0;  ///< world volume of one majorant cell (of the box: homogeneous)
+    std::vector<uint16_t> unit_local_;
+    std::vector<float> unit_bounds_;
+    std::vector<float> unit_cdf_;
+    double unit_volume_ = 0.0;  ///< world volume of one unit (voxel; homogeneous: the box)
     double emitted_power_ = 0.0, emission_bound_power_ = 0.0;
 };
 

@@ -121,6 +121,37 @@ TEST(SceneInput, SingularOrOutOfRangeTransformsNameTheField) {
     EXPECT_EQ(validate_error(doc).field, "/media/0/transform");
 }
 
+TEST(SceneInput, EmissionValuesAreChecked) {
+    json doc = scene();
+    doc["media"] = json::parse(R"([{"type": "homogeneous", "sigma_a": 1,
+                                    "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]},
+                                    "emission": {"color": [1, 0.5, 0.2]}}])");
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+    const BadValue cases[] = {
+        {"/media/0/emission/scale", -1, "/media/0/emission/scale", "must be finite and >= 0"},
+        {"/media/0/emission/color", json::parse("[1, -1, 0]"), "/media/0/emission/color",
+         "must be >= 0"},
+        {"/media/0/emission/temperature_scale", -2, "/media/0/emission/temperature_scale",
+         "must be finite and >= 0"},
+        {"/media/0/emission/temperature_offset", 2e5, "/media/0/emission/temperature_offset",
+         "within ±100000 K"},
+        {"/media/0/emission/kind", "fire", "/media/0/emission/kind",
+         "auto, blackbody, scalar, constant"},
+        {"/media/0/emission/grid", "heat", "/media/0/emission/grid", "no grids to emit from"},
+        {"/media/0/emission/kind", "blackbody", "/media/0/emission/kind", "no grids to emit from"},
+        {"/media/0/sigma_a", 0, "/media/0/emission", "its sigma_a is 0"},
+        {"/media/0/emission/flame", 1, "/media/0/emission/flame", "unknown key 'flame'"},
+    };
+    for (BadValue c : cases) {
+        SCOPED_TRACE(c.pointer + (" = " + c.value.dump()));
+        json bad = doc;
+        bad[json::json_pointer(c.pointer)] = c.value;
+        const InputError e = validate_error(bad);
+        EXPECT_EQ(e.field, c.field);
+        EXPECT_NE(e.reason.find(c.reason), std::string::npos) << e.reason;
+    }
+}
+
 TEST(SceneInput, TransformRangeBoundariesAreAccepted) {
     // The stated range (core/world_range.h) is inclusive: scales 1e-6 and 1e6 are fine.
     for (const double scale : {kMinScale, kMaxScale}) {
