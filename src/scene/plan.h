@@ -57,6 +57,8 @@ struct Plan {
 ///   (angular radius below 1°): the caustics these cast are paths the path tracers cannot sample;
 /// - photon when a point or spot light shines in a medium (fog.json: the volume map had 4× lower
 ///   error than the path tracer at equal time);
+/// - photon when a medium emits (fire.json: the photon maps had 3-8x lower error than the path
+///   tracer at equal time; the path tracer finds the fire only by phase and BSDF sampling);
 /// - path otherwise (smoke and clouds under sun and sky: the path tracer had 2–7× lower error
 ///   than the photon maps at equal time, and the guided tracer did not beat it).
 /// `desc` unchanged when its integrator is not auto; else a copy with the choice and its reason

@@ -159,6 +159,39 @@ TEST_F(Cli, InfoListsGridsOfTheDisneyCloud) {
     EXPECT_NE(r.out.find("415642"), std::string::npos) << r.out;  // SOURCES.md, incl. tiles
 }
 
+TEST_F(Cli, FireScenesRenderByDefaultWithoutWarnings) {
+    // The bundled fire and the real heat file, at their own settings (smaller images), lit by
+    // themselves; the Plan names the volume light and its source.
+    const std::string heat = std::string(FOGMAP_SHARED_VOLUMES) + "/usd_densityAndHeat.vdb";
+    for (const char* name : {"fire.json", "heat.json"}) {
+        SCOPED_TRACE(name);
+        if (std::string(name) == "heat.json" && !fs::exists(heat))
+            return test::missing_shared_volume(heat);
+        const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/" + name;
+        const fs::path exr = dir_ / (std::string(name) + ".exr");
+        for (const char* integrator : {"path", "photon"}) {
+            const RunResult r = run("render " + scene + " -o " + exr.string() +
+                                    " --set camera.width=48 --set camera.height=27 --set "
+                                    "render.integrator=\"" + integrator + "\"");
+            ASSERT_EQ(r.code, 0) << r.err;
+            EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
+            EXPECT_NE(r.err.find("volume light: built (medium 0: "), std::string::npos) << r.err;
+            const Image img = read_exr(exr.string());
+            EXPECT_GT(img.mean(), 0.0f) << integrator;
+        }
+    }
+}
+
+TEST_F(Cli, FireballVolumeHasDensityAndTemperature) {
+    const fs::path vdb = dir_ / "fireball.vdb";
+    const RunResult r = run("volume fireball -o " + vdb.string() + " --resolution 24");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const RunResult info = run("info " + vdb.string());
+    ASSERT_EQ(info.code, 0) << info.err;
+    EXPECT_NE(info.out.find("density: float"), std::string::npos) << info.out;
+    EXPECT_NE(info.out.find("temperature: float"), std::string::npos) << info.out;
+}
+
 TEST_F(Cli, BadArgumentsExitWithTwo) {
     EXPECT_EQ(run("render").code, 2);
     EXPECT_EQ(run("frobnicate").code, 2);

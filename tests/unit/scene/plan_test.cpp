@@ -307,6 +307,12 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: path (auto: media under sun", 0), 0u)
         << line(smoke, kIntegrator);
 
+    json fire = sunlit;  // sun and sky, and the smoke glows
+    fire["media"][0]["emission"] = json::parse(R"({"grid": "temperature"})");
+    const Plan fireball = pick(fire);
+    EXPECT_EQ(std::string(fireball.integrator_name), "photon");
+    EXPECT_NE(fireball.integrator.reason.find("an emitting medium"), std::string::npos);
+
     json named = sunlit;
     named["render"]["integrator"] = "photon";
     SceneDesc d = scene_desc_from_json(named, "scene.json");
