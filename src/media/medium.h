@@ -9,7 +9,8 @@
 // walked side by side and the nearest tentative collision is processed (Poisson superposition).
 // Rays must have unit world-space direction; t is world distance.
 // A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling draws
-// points ∝ that source (a table over majorant cells, rejection within a cell) for photons.
+// points ∝ that source for photons (tables over majorant cells and then voxel cells, rejection
+// within a voxel cell).
 // Thread-safety: a Medium is immutable and shared const; Medium::Sampler is per thread.
 
 #include "core/math.h"
@@ -55,7 +56,8 @@ public:
     /// The emission, or null.
     const Emission* emission() const { return emission_ ? &*emission_ : nullptr; }
     /// Radiant power the medium emits, 4π ∫ average(σ_a L_e) dV (W), estimated at set_emission
-    /// by 65536 stratified samples of the sampling table (deterministic); 0 if it does not emit.
+    /// from 65536 points of the sampling tables (fixed seeds: deterministic); 0 if it does not
+    /// emit.
     double emitted_power() const { return emitted_power_; }
     /// 4π Σ over the emission table's cells of its bound × volume (W): the power one attempt of
     /// Sampler::sample_emission stands for, of which it accepts emitted_power / this on average.
@@ -74,8 +76,9 @@ public:
         /// cell in it (corners at voxel centres), each ∝ its bound × volume, a uniform point in
         /// that, kept with probability average(σ_a L_e)(x) / the unit's bound. Unit bounds are
         /// exact maxima of the density (trilinear: the largest of the 8 corners) times bounds of
-        /// L_e from the emission voxels around the unit's image in the emission grid. True, the point
-        /// and the colour σ_a L_e / average(σ_a L_e) there, or false (rejected). Draws only from rng.
+        /// L_e from the emission voxels around the unit's image in the emission grid. True, the
+        /// point and the colour σ_a L_e / average(σ_a L_e) there, or false (rejected). Draws only
+        /// from rng.
         bool sample_emission(Rng& rng, Vec3* p_world, Color* color);
         /// Starts a walk of tentative collisions of the majorant process along the ray on
         /// [t0, t1]. Returns false if the medium is not met there. With `residual`, the process

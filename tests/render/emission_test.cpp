@@ -19,7 +19,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <utility>
 #include <vector>
 
 namespace fogmap {
@@ -200,62 +199,65 @@ SceneDesc self_lit_sphere(const TempDir& dir, const Color& sigma_s, const Color&
     return d;
 }
 
-/// Mean over the pixels where `mask` holds, of the two images.
-std::pair<double, double> masked_means(const Image& a, const Image& b,
-                                       const std::vector<bool>& mask) {
-    double sa = 0.0, sb = 0.0;
+/// The scene path-traced at path_spp and photon-mapped (4 spp, the given budgets), and the mask
+/// of the pixels where the photon film sees emission directly (`seen`) or not.
+struct Renders {
+    Image path;
+    Film photon;
+    std::vector<bool> mask;
+};
+
+Renders render_both(SceneDesc d, int path_spp, uint64_t global, uint64_t volume, bool seen) {
+    Renders r;
+    d.render.integrator = Integrator::Path;
+    d.render.spp = path_spp;
+    r.path = run_pipeline(d, true).film.beauty;
+    d.render.integrator = Integrator::Photon;
+    d.render.spp = 4;
+    d.photons.global = global;
+    d.photons.volume = volume;
+    r.photon = run_pipeline(d, true).film;
+    r.mask.resize(r.path.pixels.size());
+    for (size_t i = 0; i < r.mask.size(); ++i)
+        r.mask[i] = (max_component(r.photon.layer(Layer::Emission).pixels[i]) > 0.0f) == seen;
+    return r;
+}
+
+/// Mean luminance over the pixels where `mask` holds.
+double masked_mean(const Image& image, const std::vector<bool>& mask) {
+    double sum = 0.0;
     int n = 0;
     for (size_t i = 0; i < mask.size(); ++i) {
         if (!mask[i]) continue;
-        sa += luminance(a.pixels[i]);
-        sb += luminance(b.pixels[i]);
+        sum += luminance(image.pixels[i]);
         ++n;
     }
     EXPECT_GT(n, 40);
-    return {sa / n, sb / n};
+    return sum / n;
 }
 
 TEST(EmissionRender, SelfLitSphereLightsTheGroundAsThePathTracerDoes) {
     const TempDir dir("emission_sphere");
-    SceneDesc d = self_lit_sphere(dir, Color(0.0f), Color(3.0f), true);
-    d.render.integrator = Integrator::Path;
-    d.render.spp = 1024;
-    const Image path = run_pipeline(d, true).film.beauty;
-    d.render.integrator = Integrator::Photon;
-    d.render.spp = 4;
-    d.photons.global = 400000;
-    const Film photon = run_pipeline(d, true).film;
     // The ground: pixels the medium does not cover (no emission seen).
-    std::vector<bool> ground(path.pixels.size());
-    for (size_t i = 0; i < ground.size(); ++i)
-        ground[i] = max_component(photon.layer(Layer::Emission).pixels[i]) == 0.0f;
-    const auto [photon_mean, path_mean] = masked_means(photon.beauty, path, ground);
-    std::printf("ground: photon %.5f, path %.5f\n", photon_mean, path_mean);
-    EXPECT_NEAR(photon_mean, path_mean, 0.03 * path_mean);
-    EXPECT_NEAR(photon.beauty.mean(), path.mean(), 0.02 * path.mean()) << "the whole image";
+    const Renders r = render_both(self_lit_sphere(dir, Color(0.0f), Color(3.0f), true), 1024,
+                                  400000, 100000, false);
+    const double photon = masked_mean(r.photon.beauty, r.mask), path = masked_mean(r.path, r.mask);
+    std::printf("ground: photon %.5f, path %.5f\n", photon, path);
+    EXPECT_NEAR(photon, path, 0.03 * path);
+    EXPECT_NEAR(r.photon.beauty.mean(), r.path.mean(), 0.02 * r.path.mean()) << "the whole image";
 }
 
 TEST(EmissionRender, ScatteringEmittingCloudMatchesThePathTracer) {
     // Albedo 0.8: most of what leaves the cloud has scattered in it; the photon integrator has it
     // from the volume map (volume_multiple) and the emission it sees directly.
     const TempDir dir("emission_cloud");
-    SceneDesc d = self_lit_sphere(dir, Color(4.0f), Color(1.0f), false);
-    d.render.integrator = Integrator::Path;
-    d.render.spp = 256;
-    const Image path = run_pipeline(d, true).film.beauty;
-    d.render.integrator = Integrator::Photon;
-    d.render.spp = 4;
-    d.photons.volume = 400000;
-    const Film photon = run_pipeline(d, true).film;
-    std::vector<bool> cloud(path.pixels.size());
-    for (size_t i = 0; i < cloud.size(); ++i)
-        cloud[i] = max_component(photon.layer(Layer::Emission).pixels[i]) > 0.0f;
-    const auto [photon_mean, path_mean] = masked_means(photon.beauty, path, cloud);
-    const auto [multiple, unused] = masked_means(photon.layer(Layer::VolumeMultiple), path, cloud);
-    std::printf("cloud: photon %.5f (volume_multiple %.5f), path %.5f\n", photon_mean, multiple,
-                path_mean);
-    EXPECT_GT(multiple, 0.3 * photon_mean) << "the scattered light is a large part";
-    EXPECT_NEAR(photon_mean, path_mean, 0.03 * path_mean);
+    const Renders r = render_both(self_lit_sphere(dir, Color(4.0f), Color(1.0f), false), 256,
+                                  100000, 400000, true);
+    const double photon = masked_mean(r.photon.beauty, r.mask), path = masked_mean(r.path, r.mask);
+    const double multiple = masked_mean(r.photon.layer(Layer::VolumeMultiple), r.mask);
+    std::printf("cloud: photon %.5f (volume_multiple %.5f), path %.5f\n", photon, multiple, path);
+    EXPECT_GT(multiple, 0.3 * photon) << "the scattered light is a large part";
+    EXPECT_NEAR(photon, path, 0.03 * path);
 }
 
 }  // namespace
