@@ -1,6 +1,7 @@
 #include "app/commands.h"
 
 #include "core/error.h"
+#include "core/frames.h"
 #include "core/image.h"
 #include "core/memory_budget.h"
 #include "core/output_files.h"
@@ -21,6 +22,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
+#include <utility>
 
 namespace fogmap {
 
@@ -101,9 +104,57 @@ void check_not_an_input(const std::string& output, const std::string& option,
                              "is the " + what + " of this run; expected a different output path");
 }
 
+namespace {
+
+/// Renders `desc` and writes `exr` and `png` (both complete before either replaces an older one,
+/// core/output_files.h); returns the report.
+Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
+                        const std::string& png, const Image* reference) {
+    const std::string threads_warning = cap_threads(&desc);
+    check_run_memory(desc, reference != nullptr);
+    PipelineResult run = run_pipeline(desc, args.quiet, reference);
+    Report& report = run.report;
+    if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
+    const Image& image = run.film.beauty;
+    if (reference) {
+        const ImageError e = image_error(image, *reference);
+        report.reference = args.reference;
+        report.rmse = e.rmse;
+        report.rel_mse = e.rel_mse;
+        report.bias = e.bias;
+    }
+    const Timer timer;
+    create_output_folder(exr);
+    create_output_folder(png);
+    OutputFiles outputs;
+    write_exr(outputs.stage(exr), image, run.film.named_layers());
+    write_png(outputs.stage(png), image, args.exposure);
+    outputs.commit();
+    report.phases_s.emplace_back("write", timer.seconds());
+    report.outputs = {exr, png};
+    return std::move(report);
+}
+
+/// A VDB medium's file as load_scene opens it (relative to the scene file's folder).
+std::string medium_path(const SceneDesc& desc, const std::string& file) {
+    const fs::path p(file);
+    return p.is_absolute() || desc.base_dir.empty() ? file : (fs::path(desc.base_dir) / p).string();
+}
+
+/// `desc` for one frame: every VDB medium's file with its frame pattern expanded.
+SceneDesc frame_desc(SceneDesc desc, int frame) {
+    for (MediumDesc& m : desc.media)
+        if (m.type == MediumType::Vdb) m.file = expand_frame(m.file, frame);
+    return desc;
+}
+
+}  // namespace
+
 int run_render(const RenderArgs& args) {
+    const bool sequence = !args.frames.empty();
     std::string exr = args.output;
-    if (exr.empty()) exr = "out/" + fs::path(args.scene).stem().string() + ".exr";
+    if (exr.empty())
+        exr = "out/" + fs::path(args.scene).stem().string() + (sequence ? ".####" : "") + ".exr";
     if (!has_extension(exr, ".exr"))
         throw InputError("", "-o", "'" + exr + "' does not end in .exr; expected an .exr path");
     std::string png =
@@ -113,14 +164,33 @@ int run_render(const RenderArgs& args) {
     if (!std::isfinite(args.exposure))
         throw InputError("", "--exposure",
                          "found " + g_text(args.exposure) + "; expected a finite number of stops");
+    const std::optional<FrameRange> range =
+        sequence ? std::optional<FrameRange>(parse_frame_range(args.frames, "--frames"))
+                 : std::nullopt;
+    for (const auto& [path, option] : {std::pair{exr, "-o"}, std::pair{png, "--png"}}) {
+        if (sequence && !has_frame_pattern(path))
+            throw InputError("", option,
+                             "'" + path + "' has no frame pattern, so every frame would write "
+                             "it; with --frames expected one such as out/smoke.####.exr "
+                             "(####, $F4 or %04d)");
+        if (!sequence && has_frame_pattern(path))
+            throw InputError("", option,
+                             "'" + path + "' holds a frame pattern; expected --frames "
+                             "FIRST-LAST to render a sequence");
+    }
+    if (sequence && !args.reference.empty())
+        throw InputError("", "--reference", "cannot be combined with --frames; expected one");
+    if (!sequence && args.resume)
+        throw InputError("", "--resume", "goes with --frames; expected --frames FIRST-LAST");
 
     // Outputs first: never an input of the run, and writable, before any work.
     const std::vector<std::pair<std::string, std::string>> inputs = {
         {args.scene, "scene file"}, {args.reference, "reference image"}};
-    check_not_an_input(exr, "-o", inputs);
-    check_not_an_input(png, "--png", inputs);
-    check_output_path(exr, "-o");
-    check_output_path(png, "--png");
+    const int first = range ? range->first : 0;
+    check_not_an_input(expand_frame(exr, first), "-o", inputs);
+    check_not_an_input(expand_frame(png, first), "--png", inputs);
+    check_output_path(expand_frame(exr, first), "-o");
+    check_output_path(expand_frame(png, first), "--png");
 
     // Read the reference first: a bad reference fails before any work.
     Image reference;
@@ -128,7 +198,7 @@ int run_render(const RenderArgs& args) {
         reference = read_exr(args.reference);
         check_finite(reference, args.reference);
     }
-    SceneDesc desc = load_scene_desc(args.scene, args.overrides);
+    const SceneDesc desc = load_scene_desc(args.scene, args.overrides);
     if (!args.reference.empty() &&
         (reference.width != desc.camera.width || reference.height != desc.camera.height))
         throw InputError(args.reference, "",
@@ -140,37 +210,60 @@ int run_render(const RenderArgs& args) {
         throw InputError("", "--progressive",
                          "needs --time-budget SECONDS or --iterations N (or progressive.iterations "
                          "or progressive.time_budget in the scene)");
-    const std::string threads_warning = cap_threads(&desc);
-    check_run_memory(desc, !args.reference.empty());
-    PipelineResult run =
-        run_pipeline(desc, args.quiet, args.reference.empty() ? nullptr : &reference);
-    Report& report = run.report;
-    if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
-    const Image& image = run.film.beauty;
+    for (size_t i = 0; i < desc.media.size(); ++i)
+        if (!sequence && has_frame_pattern(desc.media[i].file))
+            throw InputError(desc.path, "/media/" + std::to_string(i) + "/file",
+                             "'" + desc.media[i].file +
+                                 "' holds a frame pattern; expected --frames FIRST-LAST to "
+                                 "render its frames");
 
-    if (!args.reference.empty()) {
-        const ImageError e = image_error(image, reference);
-        report.reference = args.reference;
-        report.rmse = e.rmse;
-        report.rel_mse = e.rel_mse;
-        report.bias = e.bias;
+    if (!sequence) {
+        const Report report =
+            render_and_write(args, desc, exr, png, args.reference.empty() ? nullptr : &reference);
+        if (args.json)
+            std::cout << report_json(report).dump(2) << "\n";
+        else
+            std::cout << report_text(report);
+        return 0;
     }
 
-    // Both files are complete before either replaces an older one (core/output_files.h).
-    const Timer timer;
-    create_output_folder(exr);
-    create_output_folder(png);
-    OutputFiles outputs;
-    write_exr(outputs.stage(exr), image, run.film.named_layers());
-    write_png(outputs.stage(png), image, args.exposure);
-    outputs.commit();
-    report.phases_s.emplace_back("write", timer.seconds());
-
-    report.outputs = {exr, png};
-    if (args.json)
-        std::cout << report_json(report).dump(2) << "\n";
-    else
-        std::cout << report_text(report);
+    // Every frame's files exist before any frame is rendered.
+    const std::vector<int> frames = range->frames();
+    for (const int f : frames)
+        for (size_t i = 0; i < desc.media.size(); ++i) {
+            const MediumDesc& m = desc.media[i];
+            if (m.type != MediumType::Vdb) continue;
+            const std::string file = medium_path(desc, expand_frame(m.file, f));
+            if (!fs::exists(file))
+                throw InputError(file, "/media/" + std::to_string(i) + "/file",
+                                 "frame " + std::to_string(f) + " of --frames " + args.frames +
+                                     ": no such file");
+        }
+    nlohmann::json reports = nlohmann::json::array();
+    for (const int f : frames) {
+        const std::string exr_f = expand_frame(exr, f), png_f = expand_frame(png, f);
+        // An output counts only when complete: both are written whole and renamed together.
+        if (args.resume && fs::exists(exr_f) && fs::exists(png_f)) {
+            if (!args.quiet) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
+                                          exr_f.c_str());
+            continue;
+        }
+        if (!args.quiet) std::fprintf(stderr, "frame %d\n", f);
+        Report report;
+        try {
+            report = render_and_write(args, frame_desc(desc, f), exr_f, png_f, nullptr);
+        } catch (const InputError& e) {  // say which frame
+            throw InputError(e.file, e.field, e.reason + " (frame " + std::to_string(f) + ")");
+        }
+        if (args.json) {
+            nlohmann::json j = report_json(report);
+            j["frame"] = f;
+            reports.push_back(j);
+        } else {
+            std::cout << "frame " << f << "\n" << report_text(report);
+        }
+    }
+    if (args.json) std::cout << reports.dump(2) << "\n";
     return 0;
 }
 
@@ -233,10 +326,30 @@ int run_volume(const VolumeArgs& args) {
     s.resolution = args.resolution;
     s.voxel_size = args.voxel_size;
     s.seed = args.seed;
-    check_output_path(args.output, "-o");
-    create_output_folder(args.output);
-    generate_volume(s, args.output);
-    std::cout << "wrote: " << args.output << "\n";
+    if (args.frames.empty()) {
+        if (has_frame_pattern(args.output))
+            throw InputError("", "-o",
+                             "'" + args.output + "' holds a frame pattern; expected --frames "
+                             "FIRST-LAST to write a sequence");
+        check_output_path(args.output, "-o");
+        create_output_folder(args.output);
+        generate_volume(s, args.output);
+        std::cout << "wrote: " << args.output << "\n";
+        return 0;
+    }
+    const FrameRange range = parse_frame_range(args.frames, "--frames");
+    if (!has_frame_pattern(args.output))
+        throw InputError("", "-o",
+                         "'" + args.output + "' has no frame pattern; with --frames expected "
+                         "one such as volumes/plume.####.vdb (####, $F4 or %04d)");
+    check_output_path(expand_frame(args.output, range.first), "-o");
+    create_output_folder(expand_frame(args.output, range.first));
+    for (const int f : range.frames()) {
+        s.time = static_cast<float>(f);
+        const std::string path = expand_frame(args.output, f);
+        generate_volume(s, path);
+        std::cout << "wrote: " << path << "\n";
+    }
     return 0;
 }
 

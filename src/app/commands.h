@@ -26,17 +26,20 @@ struct RenderArgs {
     float exposure = 0.0f;               ///< PNG preview exposure, stops
     bool quiet = false;
     bool json = false;
+    std::string frames;   ///< --frames FIRST-LAST[:STEP]; "" = one image (core/frames.h)
+    bool resume = false;  ///< with frames: skip frames whose EXR and PNG exist
 };
 
 int run_render(const RenderArgs& args);
 int run_info(const std::string& vdb_path, bool json);
 
 struct VolumeArgs {
-    std::string shape;   ///< "cloud" or "plume"
-    std::string output;  ///< .vdb path
+    std::string shape;   ///< "cloud", "plume" or "fireball"
+    std::string output;  ///< .vdb path (with a frame pattern when frames is set)
     int resolution = 64;
     float voxel_size = 0.05f;
     uint64_t seed = 1;
+    std::string frames;  ///< --frames FIRST-LAST[:STEP]: a time-varying sequence; "" = one grid
 };
 
 int run_volume(const VolumeArgs& args);

@@ -71,6 +71,10 @@ int main(int argc, char** argv) {
                   "progressive: radius reduction in (0, 1) (= --set progressive.alpha=A)");
     r->add_flag("-q,--quiet", render.quiet, "no progress bar");
     r->add_flag("--json", render.json, "print the report as JSON on stdout");
+    r->add_option("--frames", render.frames,
+                  "render frames FIRST-LAST[:STEP]: media files and outputs hold a frame pattern "
+                  "(####, $F4 or %04d)");
+    r->add_flag("--resume", render.resume, "with --frames: skip frames already written");
 
     std::string info_path;
     bool info_json = false;
@@ -86,6 +90,8 @@ int main(int argc, char** argv) {
     vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
     vol->add_option("--seed", volume.seed, "noise seed");
+    vol->add_option("--frames", volume.frames,
+                    "FIRST-LAST[:STEP]: a time-varying sequence; -o holds a frame pattern (####)");
 
     std::string probe_path;
     CLI::App* probe = app.add_subcommand("__probe-vdb", "the child of vdb_probe.h");

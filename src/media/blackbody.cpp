@@ -8,9 +8,9 @@ namespace fogmap {
 namespace {
 
 // CODATA 2018 exact constants (SI).
-constexpr double kPlanck = 6.62607015e-34;    // J s
-constexpr double kLight = 299792458.0;        // m/s
-constexpr double kBoltzmann = 1.380649e-23;   // J/K
+constexpr double kPlanck = 6.62607015e-34;   // J s
+constexpr double kLight = 299792458.0;       // m/s
+constexpr double kBoltzmann = 1.380649e-23;  // J/K
 
 // A piecewise Gaussian: different widths below and above the mean (Wyman et al. 2013, eq. 1).
 double lobe(double x, double mean, double inv_width_below, double inv_width_above) {

@@ -20,7 +20,8 @@ Emission Emission::constant(const EmissionParams& params) {
     return e;
 }
 
-Emission Emission::from_grid(const EmissionParams& params, std::shared_ptr<const DensityGrid> grid) {
+Emission Emission::from_grid(const EmissionParams& params,
+                             std::shared_ptr<const DensityGrid> grid) {
     Emission e;
     e.params_ = params;
     e.grid_ = std::move(grid);

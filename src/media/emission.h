@@ -30,7 +30,8 @@ public:
     /// L_e = params.color · params.scale everywhere (kind Constant).
     static Emission constant(const EmissionParams& params);
     /// L_e from `grid`'s values (kind Blackbody or Scalar).
-    static Emission from_grid(const EmissionParams& params, std::shared_ptr<const DensityGrid> grid);
+    static Emission from_grid(const EmissionParams& params,
+                              std::shared_ptr<const DensityGrid> grid);
 
     const EmissionParams& params() const { return params_; }
     /// The emission grid; null for constant emission.
@@ -46,8 +47,8 @@ private:
     Emission() = default;
     EmissionParams params_;
     std::shared_ptr<const DensityGrid> grid_;
-    std::vector<Color> table_;          ///< L_e at v = i / inv_step_
-    std::vector<float> running_max_;    ///< max over j <= i of average(table_[j])
+    std::vector<Color> table_;        ///< L_e at v = i / inv_step_
+    std::vector<float> running_max_;  ///< max over j <= i of average(table_[j])
     float inv_step_ = 0.0f;
 };
 

@@ -57,8 +57,7 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
     emission_ = std::move(emission);
     const DensityGrid* eg = emission_->grid();
     if (eg)
-        world_to_emission_index_ =
-            glm::inverse(scene_transform * to_float(eg->index_to_world()));
+        world_to_emission_index_ = glm::inverse(scene_transform * to_float(eg->index_to_world()));
     emission_cells_.clear();
     emission_cell_begin_.assign(1, 0);
     emission_cdf_.clear();
@@ -142,11 +141,10 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
                         float d_max = 0.0f;
                         for (int c = 0; c < 8; ++c)
                             d_max = std::max(
-                                d_max, d[((z + (c >> 2)) * kE + y + ((c >> 1) & 1)) * kE + x +
-                                         (c & 1)]);
+                                d_max,
+                                d[((z + (c >> 2)) * kE + y + ((c >> 1) & 1)) * kE + x + (c & 1)]);
                         if (!(d_max > 0.0f)) continue;
-                        const float bound =
-                            d_max * sigma_a_max * emission_bound(o + Vec3(x, y, z));
+                        const float bound = d_max * sigma_a_max * emission_bound(o + Vec3(x, y, z));
                         if (!(bound > 0.0f)) continue;
                         unit_local_.push_back(static_cast<uint16_t>(u));
                         unit_bounds_.push_back(bound);

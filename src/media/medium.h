@@ -5,12 +5,12 @@
 // piecewise-constant majorants (one per majorant cell, walked by a 3D DDA; empty cells are skipped)
 // and transmittance by residual ratio tracking (Novák, Selle & Jarosz 2014) against each cell's
 // minimum density as control: exp(−σ_t ∫ d_min) exactly, times ratio tracking of what lies above
-// it, so homogeneous media and uniform cells add no variance. Several media superpose: their majorant processes are
-// walked side by side and the nearest tentative collision is processed (Poisson superposition).
-// Rays must have unit world-space direction; t is world distance.
-// A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling draws
-// points ∝ that source for photons (tables over majorant cells and then voxel cells, rejection
-// within a voxel cell).
+// it, so homogeneous media and uniform cells add no variance. Several media superpose: their
+// majorant processes are walked side by side and the nearest tentative collision is processed
+// (Poisson superposition). Rays must have unit world-space direction; t is world distance.
+// A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling
+// draws points ∝ that source for photons (tables over majorant cells and then voxel cells,
+// rejection within a voxel cell).
 // Thread-safety: a Medium is immutable and shared const; Medium::Sampler is per thread.
 
 #include "core/math.h"

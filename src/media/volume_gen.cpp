@@ -71,7 +71,9 @@ float smoothstep(float e0, float e1, float x) {
 
 class Noise {
 public:
-    explicit Noise(uint64_t seed) : seed_(mix64(seed ^ 0x5EEDF06ull)) {}
+    /// `drift`: the noise field moves by it (noise units), so a sequence's eddies rise.
+    explicit Noise(uint64_t seed, const Vec3& drift = Vec3(0.0f))
+        : seed_(mix64(seed ^ 0x5EEDF06ull)), drift_(drift) {}
 
     /// Gradient noise, roughly in [-1, 1], 0 at integer lattice points.
     float gradient(const Vec3& p) const {
@@ -96,6 +98,7 @@ public:
     /// Fractional Brownian motion: sum of `octaves` gradient-noise octaves (gain 1/2,
     /// lacunarity 2), normalised to roughly [-1, 1].
     float fbm(Vec3 p, int octaves) const {
+        p -= drift_;
         float sum = 0.0f, amp = 1.0f, norm = 0.0f;
         for (int o = 0; o < octaves; ++o) {
             sum += amp * gradient(p);
@@ -120,6 +123,7 @@ private:
     }
 
     uint64_t seed_;
+    Vec3 drift_;
 };
 
 /// Rising column: radius grows with height, sways and is fBm-eroded at the edge, fades at top.
@@ -194,7 +198,8 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
     init_openvdb();
     const int res = std::max(settings.resolution, 8);
     const float inv_res = 1.0f / static_cast<float>(res);
-    const Noise noise(settings.seed);
+    // A sequence's frames: the noise rises by 0.15 units a frame (about a plume's eddy in 7).
+    const Noise noise(settings.seed, Vec3(0.0f, 0.15f * settings.time, 0.0f));
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
     auto acc = grid->getAccessor();
     // Index ranges: the plume stands on voxel row y = 0 centred on x = z = 0; the cloud is

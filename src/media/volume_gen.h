@@ -20,6 +20,7 @@ struct VolumeGenSettings {
     int resolution = 64;       ///< voxels along the longest axis
     float voxel_size = 0.05f;  ///< world units per voxel
     uint64_t seed = 1;         ///< noise seed
+    float time = 0.0f;         ///< frame of a sequence: the noise field drifts upward with it
 };
 
 /// Writes a procedural cloud (billowy fBm blob), plume (rising, widening, turbulent column) or

@@ -156,8 +156,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
                 L += beta * point_lights_in_segment(ray, t_max, rng, ts);
             Color emitted(0.0f);
             const TrackResult tr = delta_track(ts.media, ray, t_max, rng, &beta,
-                                               Collision::Weighted,
-                                               emissive_ ? &emitted : nullptr);
+                                               Collision::Weighted, emissive_ ? &emitted : nullptr);
             L += emitted;
             if (tr.event == TrackEvent::Absorbed) break;
             if (tr.event == TrackEvent::Scattered) {

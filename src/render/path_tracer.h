@@ -5,8 +5,8 @@
 // area, sun-disc and environment lights are combined with phase/BSDF sampling by multiple
 // importance sampling (power heuristic); Russian roulette once the throughput falls below 1;
 // max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
-// segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track). Deterministic: pixel (x, y), sample s
-// draws from Rng(seed, y*width+x, s) whatever the thread.
+// segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track).
+// Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
 #include "render/film.h"

@@ -110,7 +110,8 @@ PlanItem plan_volume_light(const SceneDesc& desc) {
     for (const MediumDesc& m : desc.media) {
         if (!m.emission || !(m.density_scale > 0.0f) || !(m.emission->scale > 0.0f)) continue;
         // A blackbody's colour comes from its temperatures, known once the grid is read.
-        if (m.emission->kind != EmissionSource::Blackbody && !(max_component(m.emission->color) > 0.0f))
+        if (m.emission->kind != EmissionSource::Blackbody &&
+            !(max_component(m.emission->color) > 0.0f))
             continue;
         ++n;
     }

@@ -81,7 +81,8 @@ void describe_volume_light(const Scene& scene, PlanItem* item);
 std::string plan_text(const Plan& plan);
 
 /// {"integrator": {"on": true, "reason": "..."}, "embree_scene": ..., "ray_marching": ...,
-/// "volume_light": ..., "volume_map": ..., "global_map": ..., "caustic_map": ...} for the report's JSON output.
+/// "volume_light": ..., "volume_map": ..., "global_map": ..., "caustic_map": ...} for the report's
+/// JSON output.
 nlohmann::json plan_json(const Plan& plan);
 
 }  // namespace fogmap

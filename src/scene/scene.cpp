@@ -154,8 +154,8 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
     }
     p.kind = e.kind == EmissionSource::Blackbody ? EmissionKind::Blackbody
              : e.kind == EmissionSource::Scalar  ? EmissionKind::Scalar
-             : grid == "temperature"              ? EmissionKind::Blackbody
-                                                  : EmissionKind::Scalar;
+             : grid == "temperature"             ? EmissionKind::Blackbody
+                                                 : EmissionKind::Scalar;
     std::shared_ptr<const DensityGrid>& g = (*grids)[{path, grid}];
     if (!g) g = DensityGrid::load(path, grid, field + "/grid");
     Emission emission = Emission::from_grid(p, g);
@@ -298,8 +298,7 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         }
         scene->media.push_back(Medium::homogeneous(medium_params(m), bounds));
         check_resolvable(scene->media.back(), desc, i);
-        if (m.emission)
-            emitters[i] = attach_emission(desc, i, "", &grids, &scene->media.back());
+        if (m.emission) emitters[i] = attach_emission(desc, i, "", &grids, &scene->media.back());
     }
     // The Plan's lines, in scene order, with each medium's power (scene->media holds the VDB
     // media first).

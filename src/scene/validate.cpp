@@ -410,8 +410,7 @@ void check_emission(const SceneDesc& desc, size_t i) {
         k.fail("temperature_offset", "temperature_offset must be finite, within ±" +
                                          num(kMaxKelvin) + " K; found " +
                                          num(e.temperature_offset));
-    const bool grid_kind =
-        e.kind == EmissionSource::Blackbody || e.kind == EmissionSource::Scalar;
+    const bool grid_kind = e.kind == EmissionSource::Blackbody || e.kind == EmissionSource::Scalar;
     if (m.type == MediumType::Homogeneous && (grid_kind || !e.grid.empty()))
         k.fail(e.grid.empty() ? "kind" : "grid",
                "a homogeneous medium has no grids to emit from; expected kind \"constant\" (or "
@@ -419,8 +418,9 @@ void check_emission(const SceneDesc& desc, size_t i) {
     if (e.kind == EmissionSource::Constant && !e.grid.empty())
         k.fail("grid", "kind \"constant\" takes no grid; found grid \"" + e.grid + "\"");
     if (max_component(m.sigma_a) <= 0.0f)
-        k.fail("", "the medium emits σ_a·L_e and its sigma_a is 0, so it would emit nothing; give "
-                   "sigma_a > 0 (the emission's strength is sigma_a × density × L_e)");
+        k.fail("",
+               "the medium emits σ_a·L_e and its sigma_a is 0, so it would emit nothing; give "
+               "sigma_a > 0 (the emission's strength is sigma_a × density × L_e)");
 }
 
 void check_medium(const SceneDesc& desc, size_t i) {

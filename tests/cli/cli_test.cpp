@@ -172,7 +172,8 @@ TEST_F(Cli, FireScenesRenderByDefaultWithoutWarnings) {
         for (const char* integrator : {"path", "photon"}) {
             const RunResult r = run("render " + scene + " -o " + exr.string() +
                                     " --set camera.width=48 --set camera.height=27 --set "
-                                    "render.integrator=\"" + integrator + "\"");
+                                    "render.integrator=\"" +
+                                    integrator + "\"");
             ASSERT_EQ(r.code, 0) << r.err;
             EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
             EXPECT_NE(r.err.find("volume light: built (medium 0: "), std::string::npos) << r.err;

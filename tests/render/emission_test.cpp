@@ -14,8 +14,8 @@
 #include "scene_builders.h"
 #include "test_support.h"
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -45,7 +45,8 @@ Estimate estimate(int n, F&& f) {
     }
     Estimate e;
     e.mean = sum / double(n);
-    e.standard_error = glm::sqrt(glm::max(sum2 / double(n) - e.mean * e.mean, DVec3(0.0)) / double(n));
+    e.standard_error =
+        glm::sqrt(glm::max(sum2 / double(n) - e.mean * e.mean, DVec3(0.0)) / double(n));
     return e;
 }
 
@@ -63,7 +64,8 @@ Estimate photon_emission(const SceneDesc& d, int n) {
     const PhotonIntegrator integrator(*scene, maps, gather_params(d, *scene, maps, false), d.march,
                                       d.render.max_depth);
     PhotonIntegrator::ThreadState ts = integrator.make_state();
-    return estimate(n, [&](Rng& rng) { return integrator.radiance(kRay, rng, ts)[Layer::Emission]; });
+    return estimate(n,
+                    [&](Rng& rng) { return integrator.radiance(kRay, rng, ts)[Layer::Emission]; });
 }
 
 void expect_near(const Estimate& e, const DVec3& want, double relative, const char* what) {
@@ -108,10 +110,10 @@ TEST(EmissionRender, VdbBlockWithItsRampsMatchesTheClosedForm) {
     const std::string file = (dir.path() / "fire.vdb").string();
     constexpr int kN = 16;
     constexpr float kH = 0.05f;
-    write_float_grids(file, {{"density", kN, kN, kN, [](int, int, int) { return 1.0f; }, Vec3(kH),
-                              Vec3(-0.375f)},
-                             {"temperature", 8, 8, 8, [](int, int, int) { return 1500.0f; },
-                              Vec3(0.2f), Vec3(-0.7f)}});
+    write_float_grids(
+        file,
+        {{"density", kN, kN, kN, [](int, int, int) { return 1.0f; }, Vec3(kH), Vec3(-0.375f)},
+         {"temperature", 8, 8, 8, [](int, int, int) { return 1500.0f; }, Vec3(0.2f), Vec3(-0.7f)}});
     const float sigma_a = 4.0f;
     SceneDesc d;
     d.media.push_back(vdb_medium(file, Color(0.0f), Color(sigma_a)));

@@ -13,15 +13,15 @@
 namespace fogmap {
 namespace {
 
-constexpr int kN = 8;         // the block's voxels per axis
-constexpr float kH = 0.1f;    // voxel size
+constexpr int kN = 8;       // the block's voxels per axis
+constexpr float kH = 0.1f;  // voxel size
 
 std::shared_ptr<const DensityGrid> block(const test::TempDir& dir, const std::string& name,
                                          float value, int n = kN, float h = kH,
                                          Vec3 translation = Vec3(0.0f)) {
     const std::string path = (dir.path() / (name + ".vdb")).string();
-    write_float_grid(path, name, n, n, n, [&](int, int, int) { return value; }, Vec3(h),
-                     translation);
+    write_float_grid(
+        path, name, n, n, n, [&](int, int, int) { return value; }, Vec3(h), translation);
     return DensityGrid::load(path, name, "");
 }
 
@@ -56,8 +56,7 @@ TEST(Emission, ConstantBlockEmitsItsAnalyticPower) {
     const DVec3 mean = sum / double(kAttempts);
     const DVec3 se = glm::sqrt((sum2 / double(kAttempts) - mean * mean) / double(kAttempts));
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c], expected[c], 4.0 * se[c]) << "channel " << c;
-    EXPECT_NEAR(m.emitted_power(), (expected.x + expected.y + expected.z) / 3.0,
-                0.01 * expected.x);
+    EXPECT_NEAR(m.emitted_power(), (expected.x + expected.y + expected.z) / 3.0, 0.01 * expected.x);
 }
 
 TEST(Emission, HomogeneousBoxEmitsExactly) {
@@ -81,9 +80,9 @@ TEST(Emission, GridValuesMapToRadiance) {
     bb.temperature_scale = 100.0f;
     bb.temperature_offset = 20.0f;
     bb.scale = 2.0f;
-    m.set_emission(Emission::from_grid(bb, block(dir, "temperature", 14.8f, 4, 0.25f,
-                                                 Vec3(-0.375f))),
-                   Mat4(1.0f));
+    m.set_emission(
+        Emission::from_grid(bb, block(dir, "temperature", 14.8f, 4, 0.25f, Vec3(-0.375f))),
+        Mat4(1.0f));
     Medium::Sampler s(m);
     const Color want = 2.0f * blackbody_radiance(1500.0);  // 14.8 × 100 + 20 K
     const Color got = s.emission(p);

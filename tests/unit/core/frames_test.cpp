@@ -1,0 +1,51 @@
+// Frame ranges and the three frame-pattern spellings users bring from Houdini, Blender and
+// printf, against hand-written expansions.
+
+#include "core/frames.h"
+
+#include "core/error.h"
+#include "test_support.h"
+
+#include <gtest/gtest.h>
+
+namespace fogmap {
+namespace {
+
+TEST(Frames, PatternsExpandToTheFrameNumber) {
+    EXPECT_EQ(expand_frame("smoke.####.vdb", 7), "smoke.0007.vdb");
+    EXPECT_EQ(expand_frame("smoke.#.vdb", 12), "smoke.12.vdb");
+    EXPECT_EQ(expand_frame("smoke.$F4.vdb", 7), "smoke.0007.vdb");
+    EXPECT_EQ(expand_frame("smoke.$F.vdb", 7), "smoke.7.vdb");
+    EXPECT_EQ(expand_frame("smoke.%04d.vdb", 7), "smoke.0007.vdb");
+    EXPECT_EQ(expand_frame("smoke.%d.vdb", 7), "smoke.7.vdb");
+    EXPECT_EQ(expand_frame("a/###/b_##.vdb", 3), "a/003/b_03.vdb") << "every pattern";
+    EXPECT_EQ(expand_frame("smoke.####.vdb", 123456), "smoke.123456.vdb") << "wider than padding";
+    EXPECT_EQ(expand_frame("smoke.####.vdb", -3), "smoke.-0003.vdb");
+    EXPECT_EQ(expand_frame("plain.vdb", 3), "plain.vdb");
+    EXPECT_EQ(expand_frame("50%.vdb", 3), "50%.vdb") << "a lone % is no pattern";
+    EXPECT_TRUE(has_frame_pattern("x.####.exr"));
+    EXPECT_TRUE(has_frame_pattern("x.$F4.exr"));
+    EXPECT_TRUE(has_frame_pattern("x.%04d.exr"));
+    EXPECT_FALSE(has_frame_pattern("x.0001.exr"));
+    EXPECT_FALSE(has_frame_pattern("50%.exr"));
+}
+
+TEST(Frames, RangesListTheirFrames) {
+    EXPECT_EQ(parse_frame_range("1-5", "--frames").frames(), (std::vector<int>{1, 2, 3, 4, 5}));
+    EXPECT_EQ(parse_frame_range("1-10:4", "--frames").frames(), (std::vector<int>{1, 5, 9}));
+    EXPECT_EQ(parse_frame_range("12", "--frames").frames(), (std::vector<int>{12}));
+    EXPECT_EQ(parse_frame_range("-2-1", "--frames").frames(), (std::vector<int>{-2, -1, 0, 1}));
+}
+
+TEST(Frames, BadRangesAreInputErrors) {
+    for (const char* bad : {"", "a-b", "5-1", "1-5:0", "1-5:-1", "1-", "1-5:", "1..5",
+                            "1-5x", "1-9999999999"}) {
+        SCOPED_TRACE(bad);
+        const InputError e = test::catch_input_error([&] { parse_frame_range(bad, "--frames"); });
+        EXPECT_EQ(e.field, "--frames");
+        EXPECT_NE(e.reason.find("expected FIRST-LAST"), std::string::npos) << e.reason;
+    }
+}
+
+}  // namespace
+}  // namespace fogmap
