@@ -10,7 +10,14 @@ listed=" $(grep -v '^\s*#' scripts/debian-packages | tr '\n' ' ') "
 failed=0
 for h in $(grep -rhoE '^\s*#\s*include\s*<[^>]+>' src tests bench |
            sed -E 's/.*<([^>]+)>.*/\1/' | sort -u); do
-    file=$(find /usr/include -path "*/$h" -print -quit 2>/dev/null || true)
+    # The standard folders first; then a search that follows symlinks (MPI's headers are reached
+    # through Debian's alternatives), and dpkg -S wants the real path.
+    file=""
+    for d in /usr/include /usr/include/x86_64-linux-gnu; do
+        if [ -e "$d/$h" ]; then file="$d/$h"; break; fi
+    done
+    [ -z "$file" ] && file=$(find -L /usr/include -path "*/$h" -print -quit 2>/dev/null || true)
+    [ -n "$file" ] && file=$(readlink -f "$file")
     if [ -z "$file" ]; then
         case "$h" in *.*|*/*) ;; *) continue ;; esac  # <vector> etc.: the C++ library itself
         echo "check_headers: <$h> is included but no installed package provides it" >&2

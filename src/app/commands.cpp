@@ -13,6 +13,7 @@
 #include "render/film.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
+#include "render/ranks.h"
 #include "render/report.h"
 #include "scene/scene_desc_json.h"
 
@@ -110,10 +111,12 @@ namespace {
 /// core/output_files.h); returns the report.
 Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
                         const std::string& png, const Image* reference) {
-    const std::string threads_warning = cap_threads(&desc);
+    const bool root = !args.ranks || args.ranks->rank() == 0;
+    const std::string threads_warning = root ? cap_threads(&desc) : "";
     check_run_memory(desc, reference != nullptr);
-    PipelineResult run = run_pipeline(desc, args.quiet, reference);
+    PipelineResult run = run_pipeline(desc, args.quiet, reference, args.ranks);
     Report& report = run.report;
+    if (!root) return std::move(report);  // rank 0 writes
     if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
     const Image& image = run.film.beauty;
     if (reference) {
@@ -220,6 +223,7 @@ int run_render(const RenderArgs& args) {
     if (!sequence) {
         const Report report =
             render_and_write(args, desc, exr, png, args.reference.empty() ? nullptr : &reference);
+        if (args.ranks && args.ranks->rank() != 0) return 0;
         if (args.json)
             std::cout << report_json(report).dump(2) << "\n";
         else
@@ -244,17 +248,19 @@ int run_render(const RenderArgs& args) {
         const std::string exr_f = expand_frame(exr, f), png_f = expand_frame(png, f);
         // An output counts only when complete: both are written whole and renamed together.
         if (args.resume && fs::exists(exr_f) && fs::exists(png_f)) {
-            if (!args.quiet) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
+            if (!args.quiet && (!args.ranks || args.ranks->rank() == 0)) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
                                           exr_f.c_str());
             continue;
         }
-        if (!args.quiet) std::fprintf(stderr, "frame %d\n", f);
+        if (!args.quiet && (!args.ranks || args.ranks->rank() == 0))
+            std::fprintf(stderr, "frame %d\n", f);
         Report report;
         try {
             report = render_and_write(args, frame_desc(desc, f), exr_f, png_f, nullptr);
         } catch (const InputError& e) {  // say which frame
             throw InputError(e.file, e.field, e.reason + " (frame " + std::to_string(f) + ")");
         }
+        if (args.ranks && args.ranks->rank() != 0) continue;
         if (args.json) {
             nlohmann::json j = report_json(report);
             j["frame"] = f;
@@ -263,7 +269,8 @@ int run_render(const RenderArgs& args) {
             std::cout << "frame " << f << "\n" << report_text(report);
         }
     }
-    if (args.json) std::cout << reports.dump(2) << "\n";
+    if (args.json && (!args.ranks || args.ranks->rank() == 0))
+        std::cout << reports.dump(2) << "\n";
     return 0;
 }
 

@@ -15,6 +15,7 @@ class App;
 namespace fogmap {
 
 struct SceneDesc;
+class Ranks;
 
 struct RenderArgs {
     std::string scene;         ///< scene file
@@ -28,6 +29,7 @@ struct RenderArgs {
     bool json = false;
     std::string frames;   ///< --frames FIRST-LAST[:STEP]; "" = one image (core/frames.h)
     bool resume = false;  ///< with frames: skip frames whose EXR and PNG exist
+    Ranks* ranks = nullptr;  ///< under mpirun: this job's ranks (rank 0 prints and writes)
 };
 
 int run_render(const RenderArgs& args);

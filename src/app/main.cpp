@@ -3,6 +3,7 @@
 // (out of memory included). Every failure prints one line "fogmap: error: ...".
 
 #include "app/commands.h"
+#include "app/mpi_ranks.h"
 #include "core/error.h"
 #include "core/memory_budget.h"
 #include "core/output_files.h"
@@ -108,6 +109,13 @@ int main(int argc, char** argv) {
                      one_line(e.what()).c_str());
         return 2;
     }
+    // mpirun: every rank runs the render; rank 0 alone prints and writes (app/mpi_ranks.h).
+    std::unique_ptr<Ranks> ranks;
+    if (*r) {
+        ranks = start_mpi(&argc, &argv);
+        render.ranks = ranks.get();
+    }
+    const bool root = !ranks || ranks->rank() == 0;
     try {
         if (*r) {
             if (r->count("--spp")) render.overrides.push_back("render.spp=" + std::to_string(spp));
@@ -133,7 +141,8 @@ int main(int argc, char** argv) {
         for (const Subcommand& sub : extra)
             if (*sub.app) return sub.run();
     } catch (const InputError& e) {
-        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
+        // Every rank reads the same input and fails alike; the error is said once.
+        if (root) std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 2;
     } catch (const OutOfMemory& e) {
         std::fprintf(stderr, "fogmap: error: %s\n", e.what());

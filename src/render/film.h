@@ -16,6 +16,7 @@
 
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -85,6 +86,67 @@ struct Film {
         for (Color& c : beauty.pixels) c *= s;
         for (Image& img : layers)
             for (Color& c : img.pixels) c *= s;
+    }
+};
+
+/// Sums of films in 64-bit fixed point (2^-32 units per value): integer addition is exact and
+/// associative, so a sum over iterations has the same bits whatever order — or rank — the
+/// iterations were added in (DESIGN.md, Ranks). Values beyond ±2^24 (radiance 1.7e7), and sums
+/// that would overflow, are clamped and counted (the pipeline warns).
+struct FixedFilm {
+    static constexpr double kUnit = 4294967296.0;  // 2^32
+    int width = 0, height = 0;
+    bool layered = false;
+    std::vector<int64_t> values;  ///< beauty, then each layer; 3 per pixel
+    uint64_t clamped = 0;
+
+    /// Adds `film` (its shape is taken when empty).
+    void add(const Film& film) {
+        if (values.empty()) {
+            width = film.beauty.width;
+            height = film.beauty.height;
+            layered = film.layered();
+            values.assign(size_t(3) * width * height * (1 + film.layers.size()), 0);
+        }
+        size_t n = 0;
+        auto add_image = [&](const Image& img) {
+            for (const Color& c : img.pixels)
+                for (int k = 0; k < 3; ++k, ++n) values[n] = add_saturated(values[n], c[k]);
+        };
+        add_image(film.beauty);
+        for (const Image& img : film.layers) add_image(img);
+    }
+    /// The mean over `count` added films.
+    Film mean(int count) const {
+        Film film(width, height, layered);
+        const double scale = 1.0 / (kUnit * count);
+        size_t n = 0;
+        auto read_image = [&](Image& img) {
+            for (Color& c : img.pixels)
+                for (int k = 0; k < 3; ++k) c[k] = static_cast<float>(values[n++] * scale);
+        };
+        read_image(film.beauty);
+        for (Image& img : film.layers) read_image(img);
+        return film;
+    }
+
+private:
+    int64_t add_saturated(int64_t sum, float v) {
+        constexpr double kMax = 16777216.0;  // 2^24
+        const double x = double(v);
+        int64_t fixed;
+        if (!(std::abs(x) <= kMax)) {
+            ++clamped;
+            fixed = x > 0.0 ? int64_t(kMax * kUnit) : -int64_t(kMax * kUnit);
+        } else {
+            fixed = std::llround(x * kUnit);
+        }
+        int64_t r;
+        if (__builtin_add_overflow(sum, fixed, &r)) {
+            ++clamped;
+            r = fixed > 0 ? INT64_MAX : INT64_MIN;
+        }
+        return r;
     }
 };
 

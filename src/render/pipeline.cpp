@@ -10,10 +10,12 @@
 #include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/photon_integrator.h"
+#include "render/ranks.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -36,11 +38,6 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     return out;
 }
 
-void warn(Report* report, const std::string& text) {
-    std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
-    report->warnings.push_back(text);
-}
-
 /// The guide's settings: its radius is the volume gather's.
 GuideSettings guide_settings(const GatherParams& gather) {
     GuideSettings g;
@@ -54,10 +51,19 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
     return progressive ? mix64(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i)) : seed;
 }
 
-PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference) {
+PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference,
+                            Ranks* ranks) {
     const SceneDesc desc = choose_integrator(scene_desc);
+    const int n_ranks = ranks ? ranks->size() : 1, my_rank = ranks ? ranks->rank() : 0;
+    const bool root = my_rank == 0;
+    quiet = quiet || !root;  // rank 0 alone speaks
     PipelineResult out;
     Report& report = out.report;
+    report.ranks = n_ranks;
+    const auto warn = [&](const std::string& text) {
+        if (root) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+        report.warnings.push_back(text);
+    };
     const Timer timer;
     Plan plan = make_plan(desc);
     const std::unique_ptr<const Scene> scene = load_scene(desc);
@@ -73,82 +79,136 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
-    for (int i = 1;; ++i) {
-        RenderSettings settings = desc.render;
-        settings.seed = iteration_seed(desc.render.seed, i, progressive);
-        IterationReport it;
-        it.index = i;
-        RenderStats stats;
-        if (photon || guided) {
-            PhotonPassResult pass =
-                trace_photons(*scene, plan, desc.photons, desc.march, settings.seed, quiet_pass);
-            if (i == 1) {
-                for (const std::string& w : pass.warnings) warn(&report, w);
-                for (const StreamReport& s : pass.streams)
-                    report.streams.push_back(
-                        {{"name", s.name},
-                         {"attempts", s.attempts},
-                         {"photons", s.photons},
-                         {"media_share", s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
-                         {"longest_path", s.longest},
-                         {"stored",
-                          {{"global", s.stored[0]},
-                           {"caustic", s.stored[1]},
-                           {"volume", s.stored[2]}}}});
-            }
-            add_phase(&report, "photon pass", pass.time_s);
-            report.photons_emitted += pass.emitted;
-            report.photons_capped += pass.capped;
-            report.photons_capped_power += pass.capped_power;
-            const PhotonMaps maps = build_trees(std::move(pass));
-            const std::vector<MapReport> built = map_reports(maps);
-            for (const MapReport& m : built) {
-                add_phase(&report, "build " + m.name, m.build_s);
-                it.photon_bytes += m.bytes;
-            }
-            if (i == 1) {
-                report.maps = built;  // one iteration's maps: the memory held at any time
-                first_gather = gather_params(desc, *scene, maps, progressive);
-            }
-            const GatherParams gather =
-                gather_at_iteration(*first_gather, i, desc.progressive.alpha);
-            it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
-            if (guided) {
-                std::optional<VolumeGuide> guide;
-                if (maps.volume) guide.emplace(*maps.volume, guide_settings(gather));
-                out.film.add(
-                    render_path(*scene, settings, quiet_pass, &stats, guide ? &*guide : nullptr));
+    // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
+    // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round.
+    FixedFilm sum;
+    int mine = 0;        // iterations this rank ran
+    int iterations = 1;  // all ranks ran (rank 0 learns it at the end)
+    const ProgressiveDesc& p = desc.progressive;
+    // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
+    // does not run it traces its photons for that alone.
+    if (progressive && my_rank != 0) {
+        PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
+                                              iteration_seed(desc.render.seed, 1, true), true);
+        first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
+    }
+    for (int round = 0;; ++round) {
+        const int i = round * n_ranks + my_rank + 1;
+        const bool runs = !progressive ? round == 0 && root : !(p.iterations > 0 && i > p.iterations);
+        if (runs) {
+            ++mine;
+            RenderSettings settings = desc.render;
+            settings.seed = iteration_seed(desc.render.seed, i, progressive);
+            IterationReport it;
+            it.index = i;
+            RenderStats stats;
+            Film film;
+            if (photon || guided) {
+                PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
+                                                      settings.seed, quiet_pass);
+                if (i == 1) {
+                    for (const std::string& w : pass.warnings) warn(w);
+                    for (const StreamReport& s : pass.streams)
+                        report.streams.push_back(
+                            {{"name", s.name},
+                             {"attempts", s.attempts},
+                             {"photons", s.photons},
+                             {"media_share",
+                              s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
+                             {"longest_path", s.longest},
+                             {"stored",
+                              {{"global", s.stored[0]},
+                               {"caustic", s.stored[1]},
+                               {"volume", s.stored[2]}}}});
+                }
+                add_phase(&report, "photon pass", pass.time_s);
+                report.photons_emitted += pass.emitted;
+                report.photons_capped += pass.capped;
+                report.photons_capped_power += pass.capped_power;
+                const PhotonMaps maps = build_trees(std::move(pass));
+                const std::vector<MapReport> built = map_reports(maps);
+                for (const MapReport& m : built) {
+                    add_phase(&report, "build " + m.name, m.build_s);
+                    it.photon_bytes += m.bytes;
+                }
+                if (report.maps.empty()) report.maps = built;  // one iteration's maps
+                if (i == 1) first_gather = gather_params(desc, *scene, maps, progressive);
+                const GatherParams gather = gather_at_iteration(*first_gather, i, p.alpha);
+                it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
+                if (guided) {
+                    std::optional<VolumeGuide> guide;
+                    if (maps.volume) guide.emplace(*maps.volume, guide_settings(gather));
+                    film = render_path(*scene, settings, quiet_pass, &stats,
+                                       guide ? &*guide : nullptr);
+                } else {
+                    double precompute_s = 0.0;
+                    film = render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
+                                         &stats, &precompute_s);
+                    if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
+                }
             } else {
-                double precompute_s = 0.0;
-                out.film.add(render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
-                                           &stats, &precompute_s));
-                if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
+                film = render_path(*scene, settings, quiet_pass, &stats);
             }
-        } else {
-            out.film.add(render_path(*scene, settings, quiet_pass, &stats));
+            if (progressive)
+                sum.add(film);
+            else
+                out.film = std::move(film);
+            add_phase(&report, "render", stats.render_s);
+            report.samples += stats.samples;
+            report.rays += stats.rays;
+            report.nonfinite += stats.nonfinite;
+            report.depth_capped += stats.capped;
+            report.render_s += stats.render_s;
+            report.threads = stats.threads;
+            it.elapsed_s = timer.seconds();
+            if (reference && progressive && n_ranks == 1)
+                it.rel_mse = image_error(sum.mean(mine).beauty, *reference).rel_mse;
+            else if (reference)
+                it.rel_mse = image_error(out.film.beauty, *reference).rel_mse;
+            report.iterations.push_back(it);
+            if (progressive && !quiet)
+                std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
+                             i, it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
+                             reference && n_ranks == 1
+                                 ? (", relMSE " + std::to_string(it.rel_mse)).c_str()
+                                 : "");
         }
-        add_phase(&report, "render", stats.render_s);
-        report.samples += stats.samples;
-        report.rays += stats.rays;
-        report.nonfinite += stats.nonfinite;
-        report.depth_capped += stats.capped;
-        report.render_s += stats.render_s;
-        report.threads = stats.threads;
-        it.elapsed_s = timer.seconds();
-        if (reference) {
-            Image mean = out.film.beauty;
-            for (Color& c : mean.pixels) c *= 1.0f / static_cast<float>(i);
-            it.rel_mse = image_error(mean, *reference).rel_mse;
+        // Every rank stops after the same round: the count is known to all, the time budget is
+        // agreed on (any rank out of time stops them all).
+        if (!progressive) break;
+        const int ran = (round + 1) * n_ranks;
+        if (p.iterations > 0 && ran >= p.iterations) break;
+        const bool out_of_time = p.time_budget > 0.0f && timer.seconds() >= p.time_budget;
+        if (ranks ? ranks->any(out_of_time) : out_of_time) break;
+    }
+    if (progressive) {
+        // Rank 0 gets the sums of the film and of the counts; the others are done.
+        std::vector<int64_t> counts = {int64_t(mine),
+                                       int64_t(report.samples),
+                                       int64_t(report.rays),
+                                       int64_t(report.nonfinite),
+                                       int64_t(report.depth_capped),
+                                       int64_t(report.photons_emitted),
+                                       int64_t(report.photons_capped),
+                                       int64_t(sum.clamped)};
+        if (ranks) {
+            ranks->sum_to_root(&counts);
+            if (sum.values.empty()) sum.add(Film(desc.camera.width, desc.camera.height, photon));
+            ranks->sum_to_root(&sum.values);
         }
-        report.iterations.push_back(it);
-        if (progressive && !quiet)
-            std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n", i,
-                         it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
-                         reference ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
-        const ProgressiveDesc& p = desc.progressive;
-        if (!progressive || (p.iterations > 0 && i >= p.iterations) ||
-            (p.time_budget > 0.0f && timer.seconds() >= p.time_budget))
-            break;
+        if (!root) return out;
+        report.samples = uint64_t(counts[1]);
+        report.rays = uint64_t(counts[2]);
+        report.nonfinite = uint64_t(counts[3]);
+        report.depth_capped = uint64_t(counts[4]);
+        report.photons_emitted = uint64_t(counts[5]);
+        report.photons_capped = uint64_t(counts[6]);
+        if (counts[7] > 0)
+            warn(std::to_string(counts[7]) +
+                 " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
+                 "clamped");
+        out.film = sum.mean(static_cast<int>(counts[0]));
+        iterations = static_cast<int>(counts[0]);
     }
     if (report.samples > 0 && report.depth_capped > report.samples / 1000) {
         char text[200];
@@ -156,20 +216,18 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                       "render.max_depth = %d cut %.2g%% of the camera samples while they still "
                       "carried light; raise it (the image misses that light)",
                       desc.render.max_depth, 100.0 * double(report.depth_capped) / report.samples);
-        warn(&report, text);
+        warn(text);
     }
-    const int n = static_cast<int>(report.iterations.size());
-    if (n > 1) out.film.scale(1.0f / static_cast<float>(n));
     if (report.nonfinite > 0)
-        warn(&report, std::to_string(report.nonfinite) + " of " + std::to_string(report.samples) +
-                          " camera samples were not finite (NaN or infinite) and were dropped; "
-                          "the pixels they fell in are darker");
+        warn(std::to_string(report.nonfinite) + " of " + std::to_string(report.samples) +
+             " camera samples were not finite (NaN or infinite) and were dropped; the pixels "
+             "they fell in are darker");
     report.scene = desc.path;
     report.settings = settings_json(desc);
     report.width = out.film.beauty.width;
     report.height = out.film.beauty.height;
-    report.spp = desc.render.spp * n;
-    report.photons_capped_power /= n;  // the mean share over iterations
+    report.spp = desc.render.spp * iterations;
+    report.photons_capped_power /= std::max(mine, 1);  // the mean share over rank 0's iterations
     report.mean = out.film.beauty.mean();
     return out;
 }

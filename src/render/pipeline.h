@@ -12,7 +12,10 @@
 
 #include <cstdint>
 
+
 namespace fogmap {
+
+class Ranks;
 
 struct PipelineResult {
     Film film;      ///< mean over iterations; layered for the photon integrator
@@ -27,6 +30,11 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// stderr unless quiet; warnings on stderr always (and in the report). `reference` (optional)
 /// feeds the per-iteration error of progressive runs. Throws InputError for unreadable scene data
 /// (meshes, VDB files).
-PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr);
+/// With `ranks` (render/ranks.h), every rank calls it: progressive iterations are split by index
+/// (rank r runs i ≡ r + 1 mod ranks) and summed in fixed point on rank 0, so the image is the same
+/// bits for any rank count; a plain render runs on rank 0 alone. Only rank 0's result (film,
+/// report with the summed counts) is meaningful; the other ranks print nothing.
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr,
+                            Ranks* ranks = nullptr);
 
 }  // namespace fogmap

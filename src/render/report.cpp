@@ -49,7 +49,8 @@ std::string report_text(const Report& r) {
             << "% reach the media; stored global " << st["stored"]["global"] << ", caustic "
             << st["stored"]["caustic"] << ", volume " << st["stored"]["volume"] << "\n";
     out << "image: " << r.width << " x " << r.height << ", " << r.spp << " spp, " << r.threads
-        << " threads\n";
+        << " threads" << (r.ranks > 1 ? " per rank, " + std::to_string(r.ranks) + " MPI ranks" : "")
+        << "\n";
     double total = 0.0;
     for (const auto& [name, s] : r.phases_s) {
         out << "time " << name << ": " << fixed(s, 3) << " s\n";
@@ -108,6 +109,7 @@ nlohmann::json report_json(const Report& r) {
             {"spp", r.spp},
             {"threads", r.threads},
             {"time_s", phases},
+            {"ranks", r.ranks},
             {"samples", r.samples},
             {"samples_per_s", per_second(r.samples, r.render_s)},
             {"rays", r.rays},

@@ -1,0 +1,60 @@
+#include "app/mpi_ranks.h"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <cstdlib>
+
+namespace fogmap {
+
+namespace {
+
+class MpiRanks final : public Ranks {
+public:
+    MpiRanks() {
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+        MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    }
+    ~MpiRanks() override { MPI_Finalize(); }
+    int rank() const override { return rank_; }
+    int size() const override { return size_; }
+    // In chunks: MPI counts are ints, and a 1920x1080 film with its layers is 44 million values.
+    void sum_to_root(std::vector<int64_t>* values) override {
+        constexpr size_t kChunk = size_t(1) << 24;
+        std::vector<int64_t> out(rank_ == 0 ? values->size() : 0);
+        for (size_t at = 0; at < values->size(); at += kChunk) {
+            const int n = static_cast<int>(std::min(kChunk, values->size() - at));
+            MPI_Reduce(values->data() + at, rank_ == 0 ? out.data() + at : nullptr, n, MPI_INT64_T,
+                       MPI_SUM, 0, MPI_COMM_WORLD);
+        }
+        if (rank_ == 0) *values = std::move(out);
+    }
+    bool any(bool mine) override {
+        int in = mine ? 1 : 0, out = 0;
+        MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, MPI_COMM_WORLD);
+        return out != 0;
+    }
+
+private:
+    int rank_ = 0, size_ = 1;
+};
+
+}  // namespace
+
+std::unique_ptr<Ranks> start_mpi(int* argc, char*** argv) {
+    // Open MPI's launcher sets these; without them fogmap is one process without MPI.
+    if (!std::getenv("OMPI_COMM_WORLD_SIZE") && !std::getenv("PMIX_RANK")) return nullptr;
+    int provided = 0;
+    MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
+    return std::make_unique<MpiRanks>();
+}
+
+void abort_mpi(int code) {
+    int initialized = 0, finalized = 0;
+    MPI_Initialized(&initialized);
+    MPI_Finalized(&finalized);
+    if (initialized && !finalized) MPI_Abort(MPI_COMM_WORLD, code);
+    std::exit(code);
+}
+
+}  // namespace fogmap

@@ -1,0 +1,23 @@
+#pragma once
+// The processes one run is spread over (DESIGN.md, Ranks): MPI ranks under mpirun
+// (app/mpi_ranks.cpp), or none. The pipeline asks only for these collective operations, so MPI's
+// headers stay in app/. Every rank must call each operation in the same order.
+
+#include <cstdint>
+#include <vector>
+
+namespace fogmap {
+
+class Ranks {
+public:
+    virtual ~Ranks() = default;
+    virtual int rank() const = 0;
+    virtual int size() const = 0;
+    /// Element-wise integer sum of `values` over all ranks, left on rank 0 (other ranks' values
+    /// are unspecified after the call). Integer sums do not depend on the order of arrival.
+    virtual void sum_to_root(std::vector<int64_t>* values) = 0;
+    /// True on every rank when any rank passes true.
+    virtual bool any(bool mine) = 0;
+};
+
+}  // namespace fogmap
