@@ -5,6 +5,7 @@
 // before the first render; the CSV and SVG appear together at the end (temp file + rename).
 
 #include "app/commands.h"
+#include "core/hash.h"
 
 #include "bench/bench.h"
 #include "bench/svg_plot.h"
@@ -105,16 +106,6 @@ std::vector<int> parse_path_spp(const std::string& text) {
         out.push_back(int(n));
     }
     return out;
-}
-
-/// FNV-1a, 64 bit: a stable name for the cached reference (std::hash is not stable).
-uint64_t fnv1a(const std::string& s) {
-    uint64_t h = 0xcbf29ce484222325ull;
-    for (unsigned char c : s) {
-        h ^= c;
-        h *= 0x100000001b3ull;
-    }
-    return h;
 }
 
 /// Writes every (path, text) pair to its temp file first and renames only when all succeeded,

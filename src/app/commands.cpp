@@ -12,6 +12,7 @@
 #include "media/volume_gen.h"
 #include "render/film.h"
 #include "render/metrics.h"
+#include "render/checkpoint.h"
 #include "render/pipeline.h"
 #include "render/ranks.h"
 #include "render/report.h"
@@ -114,7 +115,25 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
     const bool root = !args.ranks || args.ranks->rank() == 0;
     const std::string threads_warning = root ? cap_threads(&desc) : "";
     check_run_memory(desc, reference != nullptr);
-    PipelineResult run = run_pipeline(desc, args.quiet, reference, args.ranks);
+    // Checkpoints beside the EXR: written atomically by rank 0 (the last one at the end, so a
+    // finished run can be extended), read by every rank on --resume (each needs the count).
+    const std::string checkpoint_path = exr + ".checkpoint";
+    const uint64_t fingerprint = resumable_fingerprint(desc);
+    std::optional<Checkpoint> resume;
+    if (args.resume && fs::exists(checkpoint_path))
+        resume = read_checkpoint(checkpoint_path, "--resume", fingerprint);
+    Checkpoints checkpoints;
+    checkpoints.resume = resume ? &*resume : nullptr;
+    checkpoints.every_s = args.checkpoint_every;
+    checkpoints.write = [&](const Checkpoint& c) {
+        Checkpoint stamped = c;
+        stamped.fingerprint = fingerprint;
+        OutputFiles out;
+        write_staged_text(out.stage(checkpoint_path), checkpoint_bytes(stamped), "checkpoint");
+        out.commit();
+    };
+    if (args.checkpoint_every > 0.0 && root) create_output_folder(checkpoint_path);
+    PipelineResult run = run_pipeline(desc, args.quiet, reference, args.ranks, &checkpoints);
     Report& report = run.report;
     if (!root) return std::move(report);  // rank 0 writes
     if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
@@ -183,8 +202,10 @@ int run_render(const RenderArgs& args) {
     }
     if (sequence && !args.reference.empty())
         throw InputError("", "--reference", "cannot be combined with --frames; expected one");
-    if (!sequence && args.resume)
-        throw InputError("", "--resume", "goes with --frames; expected --frames FIRST-LAST");
+    if (!(args.checkpoint_every >= 0.0 && args.checkpoint_every < 1e9))
+        throw InputError("", "--checkpoint-every",
+                         "found " + g_text(args.checkpoint_every) +
+                             "; expected seconds >= 0 (0: no checkpoints)");
 
     // Outputs first: never an input of the run, and writable, before any work.
     const std::vector<std::pair<std::string, std::string>> inputs = {
@@ -209,6 +230,11 @@ int run_render(const RenderArgs& args) {
                              std::to_string(reference.height) + ", the camera renders " +
                              std::to_string(desc.camera.width) + "x" +
                              std::to_string(desc.camera.height));
+    if (args.checkpoint_every > 0.0 &&
+        !(desc.render.integrator == Integrator::Photon && desc.progressive.enabled()))
+        throw InputError("", "--checkpoint-every",
+                         "checkpoints are for progressive photon mapping; expected --iterations N "
+                         "or --time-budget S with the photon integrator");
     if (args.progressive && !desc.progressive.enabled())
         throw InputError("", "--progressive",
                          "needs --time-budget SECONDS or --iterations N (or progressive.iterations "

@@ -28,7 +28,8 @@ struct RenderArgs {
     bool quiet = false;
     bool json = false;
     std::string frames;   ///< --frames FIRST-LAST[:STEP]; "" = one image (core/frames.h)
-    bool resume = false;  ///< with frames: skip frames whose EXR and PNG exist
+    bool resume = false;  ///< skip frames whose EXR and PNG exist; continue from a checkpoint
+    double checkpoint_every = 0.0;  ///< progressive: seconds between checkpoints; 0 = none
     Ranks* ranks = nullptr;  ///< under mpirun: this job's ranks (rank 0 prints and writes)
 };
 

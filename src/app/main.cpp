@@ -75,7 +75,10 @@ int main(int argc, char** argv) {
     r->add_option("--frames", render.frames,
                   "render frames FIRST-LAST[:STEP]: media files and outputs hold a frame pattern "
                   "(####, $F4 or %04d)");
-    r->add_flag("--resume", render.resume, "with --frames: skip frames already written");
+    r->add_flag("--resume", render.resume,
+                "skip frames already written; continue a progressive run from its checkpoint");
+    r->add_option("--checkpoint-every", render.checkpoint_every,
+                  "progressive: write <output>.checkpoint every S seconds (for --resume)");
 
     std::string info_path;
     bool info_json = false;

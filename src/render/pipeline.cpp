@@ -52,7 +52,7 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
 }
 
 PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference,
-                            Ranks* ranks) {
+                            Ranks* ranks, const Checkpoints* checkpoints) {
     const SceneDesc desc = choose_integrator(scene_desc);
     const int n_ranks = ranks ? ranks->size() : 1, my_rank = ranks ? ranks->rank() : 0;
     const bool root = my_rank == 0;
@@ -80,23 +80,67 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
     // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
-    // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round.
+    // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the
+    // `base` iterations of the checkpoint resumed from.
     FixedFilm sum;
-    int mine = 0;        // iterations this rank ran
-    int iterations = 1;  // all ranks ran (rank 0 learns it at the end)
+    int mine = 0;  // iterations in this rank's sum
     const ProgressiveDesc& p = desc.progressive;
+    const int base = checkpoints && checkpoints->resume ? checkpoints->resume->iterations : 0;
+    // Counts summed over ranks with the film; rank 0 holds the totals after gather_to_root.
+    const auto counts = [&] {
+        return std::vector<int64_t>{mine,
+                                    int64_t(report.samples),
+                                    int64_t(report.rays),
+                                    int64_t(report.nonfinite),
+                                    int64_t(report.depth_capped),
+                                    int64_t(report.photons_emitted),
+                                    int64_t(report.photons_capped),
+                                    int64_t(sum.clamped)};
+    };
+    const auto set_counts = [&](const std::vector<int64_t>& c) {
+        mine = int(c[0]);
+        report.samples = uint64_t(c[1]);
+        report.rays = uint64_t(c[2]);
+        report.nonfinite = uint64_t(c[3]);
+        report.depth_capped = uint64_t(c[4]);
+        report.photons_emitted = uint64_t(c[5]);
+        report.photons_capped = uint64_t(c[6]);
+        sum.clamped = uint64_t(c[7]);
+    };
+    // Every rank's sum and counts into rank 0's; the other ranks start again from zero.
+    const auto gather_to_root = [&] {
+        std::vector<int64_t> c = counts();
+        if (sum.values.empty()) sum.add(Film(desc.camera.width, desc.camera.height, photon));
+        if (ranks) {
+            ranks->sum_to_root(&c);
+            ranks->sum_to_root(&sum.values);
+        }
+        if (root) {
+            set_counts(c);
+        } else {
+            set_counts(std::vector<int64_t>(c.size(), 0));
+            std::fill(sum.values.begin(), sum.values.end(), 0);
+        }
+    };
+    if (base > 0 && root) {
+        sum = checkpoints->resume->sum;
+        set_counts(checkpoints->resume->counts);
+    }
     // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
     // does not run it traces its photons for that alone.
-    if (progressive && my_rank != 0) {
+    if (progressive && (my_rank != 0 || base > 0)) {
         PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
                                               iteration_seed(desc.render.seed, 1, true), true);
         first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
     }
+    double checkpointed_s = 0.0;
+    int own = 0;  // iterations this rank ran itself
     for (int round = 0;; ++round) {
-        const int i = round * n_ranks + my_rank + 1;
+        const int i = base + round * n_ranks + my_rank + 1;
         const bool runs = !progressive ? round == 0 && root : !(p.iterations > 0 && i > p.iterations);
         if (runs) {
             ++mine;
+            ++own;
             RenderSettings settings = desc.render;
             settings.seed = iteration_seed(desc.render.seed, i, progressive);
             IterationReport it;
@@ -161,7 +205,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             report.render_s += stats.render_s;
             report.threads = stats.threads;
             it.elapsed_s = timer.seconds();
-            if (reference && progressive && n_ranks == 1)
+            if (reference && progressive && n_ranks == 1 && base == 0)
                 it.rel_mse = image_error(sum.mean(mine).beauty, *reference).rel_mse;
             else if (reference)
                 it.rel_mse = image_error(out.film.beauty, *reference).rel_mse;
@@ -169,46 +213,40 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             if (progressive && !quiet)
                 std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
                              i, it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
-                             reference && n_ranks == 1
+                             reference && n_ranks == 1 && base == 0
                                  ? (", relMSE " + std::to_string(it.rel_mse)).c_str()
                                  : "");
         }
         // Every rank stops after the same round: the count is known to all, the time budget is
         // agreed on (any rank out of time stops them all).
         if (!progressive) break;
-        const int ran = (round + 1) * n_ranks;
+        const int ran = base + (round + 1) * n_ranks;
         if (p.iterations > 0 && ran >= p.iterations) break;
         const bool out_of_time = p.time_budget > 0.0f && timer.seconds() >= p.time_budget;
         if (ranks ? ranks->any(out_of_time) : out_of_time) break;
-    }
-    if (progressive) {
-        // Rank 0 gets the sums of the film and of the counts; the others are done.
-        std::vector<int64_t> counts = {int64_t(mine),
-                                       int64_t(report.samples),
-                                       int64_t(report.rays),
-                                       int64_t(report.nonfinite),
-                                       int64_t(report.depth_capped),
-                                       int64_t(report.photons_emitted),
-                                       int64_t(report.photons_capped),
-                                       int64_t(sum.clamped)};
-        if (ranks) {
-            ranks->sum_to_root(&counts);
-            if (sum.values.empty()) sum.add(Film(desc.camera.width, desc.camera.height, photon));
-            ranks->sum_to_root(&sum.values);
+        // A checkpoint after a whole round: every iteration up to `ran` is in some rank's sum.
+        if (checkpoints && checkpoints->every_s > 0.0) {
+            const bool due = timer.seconds() - checkpointed_s >= checkpoints->every_s;
+            if (ranks ? ranks->any(due) : due) {
+                gather_to_root();
+                if (root) checkpoints->write(Checkpoint{0, ran, counts(), sum});
+                checkpointed_s = timer.seconds();
+            }
         }
+    }
+    int iterations = 1;  // all ranks ran
+    if (progressive) {
+        gather_to_root();
         if (!root) return out;
-        report.samples = uint64_t(counts[1]);
-        report.rays = uint64_t(counts[2]);
-        report.nonfinite = uint64_t(counts[3]);
-        report.depth_capped = uint64_t(counts[4]);
-        report.photons_emitted = uint64_t(counts[5]);
-        report.photons_capped = uint64_t(counts[6]);
-        if (counts[7] > 0)
-            warn(std::to_string(counts[7]) +
+        // The last checkpoint holds every iteration: a later --resume with a larger budget
+        // continues from here.
+        if (checkpoints && checkpoints->every_s > 0.0) checkpoints->write({0, mine, counts(), sum});
+        if (sum.clamped > 0)
+            warn(std::to_string(sum.clamped) +
                  " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
                  "clamped");
-        out.film = sum.mean(static_cast<int>(counts[0]));
-        iterations = static_cast<int>(counts[0]);
+        out.film = sum.mean(mine);
+        iterations = mine;
     }
     if (report.samples > 0 && report.depth_capped > report.samples / 1000) {
         char text[200];
@@ -227,7 +265,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     report.width = out.film.beauty.width;
     report.height = out.film.beauty.height;
     report.spp = desc.render.spp * iterations;
-    report.photons_capped_power /= std::max(mine, 1);  // the mean share over rank 0's iterations
+    report.photons_capped_power /= std::max(own, 1);  // the mean share over rank 0's iterations
     report.mean = out.film.beauty.mean();
     return out;
 }

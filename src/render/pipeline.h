@@ -6,16 +6,25 @@
 // budget. `fogmap render` and `fogmap bench` both call it, so every run is measured the same way.
 
 #include "core/image.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/report.h"
 #include "scene/scene_desc.h"
 
 #include <cstdint>
+#include <functional>
 
 
 namespace fogmap {
 
 class Ranks;
+
+/// Checkpointing of a progressive run (render/checkpoint.h).
+struct Checkpoints {
+    const Checkpoint* resume = nullptr;  ///< start after its iterations (rank 0 takes its sums)
+    double every_s = 0.0;                ///< 0 = never
+    std::function<void(const Checkpoint&)> write;  ///< on rank 0; fingerprint left 0
+};
 
 struct PipelineResult {
     Film film;      ///< mean over iterations; layered for the photon integrator
@@ -34,7 +43,10 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// (rank r runs i ≡ r + 1 mod ranks) and summed in fixed point on rank 0, so the image is the same
 /// bits for any rank count; a plain render runs on rank 0 alone. Only rank 0's result (film,
 /// report with the summed counts) is meaningful; the other ranks print nothing.
+/// With `checkpoints` (progressive runs): starts after the iterations of checkpoints->resume (its
+/// sum and counts), and every checkpoints->every_s seconds, after a whole round, and at the end,
+/// passes rank 0's totals to checkpoints->write.
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr,
-                            Ranks* ranks = nullptr);
+                            Ranks* ranks = nullptr, const Checkpoints* checkpoints = nullptr);
 
 }  // namespace fogmap

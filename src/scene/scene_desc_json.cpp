@@ -1,6 +1,7 @@
 #include "scene/scene_desc_json.h"
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/input_file.h"
 #include "scene/json_reader.h"
 #include "scene/plan.h"
@@ -574,6 +575,14 @@ json to_json(const SceneDesc& desc) {
             write_typed(m, [](const MediumDesc& x, FieldWriter& f) { medium_fields(x, f); }));
     }
     return j;
+}
+
+uint64_t resumable_fingerprint(const SceneDesc& desc) {
+    json j = to_json(desc);
+    j["progressive"].erase("iterations");
+    j["progressive"].erase("time_budget");
+    j["render"].erase("threads");
+    return fnv1a(j.dump());
 }
 
 SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides) {

@@ -29,6 +29,10 @@ SceneDesc scene_desc_from_json(const nlohmann::json& doc, const std::string& fil
 
 /// SceneDesc → JSON with every field; scene_desc_from_json(to_json(d)) reads back d exactly.
 nlohmann::json to_json(const SceneDesc& desc);
+
+/// FNV-1a of to_json(desc) without progressive.iterations, progressive.time_budget and
+/// render.threads: what a resumed progressive run must share with its checkpoint.
+uint64_t resumable_fingerprint(const SceneDesc& desc);
 /// The render settings alone: {integrator, spp, max_depth, seed, threads}.
 nlohmann::json to_json(const RenderSettings& render);
 /// The effective non-scene settings printed by the report, every field written:

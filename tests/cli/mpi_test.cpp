@@ -1,12 +1,14 @@
 // mpirun with 1, 2 and 3 ranks (oversubscribed, unbound, allowed as root): a progressive render
 // splits its iterations over the ranks and gives the same EXR, bit for bit, as fogmap without
 // mpirun; the photon counts add up to the same totals; bad input exits 2 on every rank count with
-// the error said once; ranks with a time budget stop together.
+// the error said once; ranks with a time budget stop together; a run resumed from its checkpoint
+// (at any rank count, also after a SIGKILL) ends with the image of an uninterrupted run.
 
 #include "test_support.h"
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -92,6 +94,55 @@ TEST_F(Mpi, RanksWithATimeBudgetStopTogether) {
     ASSERT_EQ(r.code, 0) << r.err;
     EXPECT_TRUE(fs::exists(at("t.exr")));
     EXPECT_NE(r.out.find("2 MPI ranks"), std::string::npos) << r.out;
+}
+
+TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
+    // 16 iterations at once; 6 with checkpoints, then resumed to 16 — at 1 rank, and at 2 ranks
+    // resumed at 3; and a run killed (SIGKILL: no clean-up at all) while it writes a checkpoint
+    // after every round, resumed.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    const std::string args = "render -q " + scene +
+                             " --set camera.width=32 --set camera.height=18 --set render.spp=2 "
+                             "--set photons.volume=5000 --set photons.global=2000 -o ";
+    ASSERT_EQ(run(args + at("whole.exr") + " --iterations 16", 0).code, 0);
+    const std::string expected = test::slurp(at("whole.exr"));
+    for (const auto& [first, then] : {std::pair{0, 0}, std::pair{2, 3}}) {
+        SCOPED_TRACE(std::to_string(first) + " then " + std::to_string(then) + " ranks");
+        const std::string exr = at("r" + std::to_string(first) + ".exr");
+        ASSERT_EQ(run(args + exr + " --iterations 6 --checkpoint-every 1000", first).code, 0);
+        ASSERT_TRUE(fs::exists(exr + ".checkpoint"));
+        EXPECT_FALSE(test::slurp(exr) == expected) << "6 iterations are not 16";
+        const test::RunResult r = run(args + exr + " --iterations 16 --resume", then);
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_TRUE(test::slurp(exr) == expected) << "the resumed image differs";
+    }
+    // Killed part way through 48 iterations (about 4 s; the kill comes at 1.5 s, whatever
+    // iteration or checkpoint write is under way).
+    ASSERT_EQ(run(args + at("whole48.exr") + " --iterations 48", 0).code, 0);
+    const std::string exr = at("killed.exr");
+    test::run_fogmap(args + exr + " --iterations 48 --checkpoint-every 1e-6", dir_,
+                     "timeout -s KILL 1.5 ");
+    std::printf("after the kill: checkpoint %s, output %s\n",
+                fs::exists(exr + ".checkpoint") ? "yes" : "no", fs::exists(exr) ? "yes" : "no");
+    const test::RunResult r = run(args + exr + " --iterations 48 --resume", 0);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_TRUE(test::slurp(exr) == test::slurp(at("whole48.exr")))
+        << "the image resumed after the kill differs";
+}
+
+TEST_F(Mpi, ACheckpointOfOtherSettingsIsRefused) {
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    const std::string exr = at("c.exr");
+    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 1\n" + std::string(80, '\x01'));
+    const test::RunResult r = run("render -q " + scene +
+                                      " --set camera.width=8 --set camera.height=6 "
+                                      "--set progressive.iterations=2 --resume -o " + exr,
+                                  0);
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("c.exr.checkpoint: --resume: written for another scene"),
+              std::string::npos)
+        << r.err;
+    EXPECT_FALSE(fs::exists(exr));
 }
 
 }  // namespace
