@@ -23,7 +23,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <algorithm>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <utility>
 
@@ -269,24 +271,34 @@ int run_render(const RenderArgs& args) {
                                  "frame " + std::to_string(f) + " of --frames " + args.frames +
                                      ": no such file");
         }
+    // Under mpirun the ranks form groups, dealt the frames round-robin; a group's ranks split
+    // its frames' iterations, and its rank 0 writes them.
+    const int world = args.ranks ? args.ranks->size() : 1;
+    const int groups = std::min<int>(world, static_cast<int>(frames.size()));
+    const int group = args.ranks ? args.ranks->rank() % groups : 0;
+    std::unique_ptr<Ranks> team = args.ranks && world > 1 ? args.ranks->split(group) : nullptr;
+    RenderArgs frame_args = args;
+    if (team) frame_args.ranks = team.get();
+    const bool speaks = !frame_args.ranks || frame_args.ranks->rank() == 0;
     nlohmann::json reports = nlohmann::json::array();
-    for (const int f : frames) {
+    for (size_t k = 0; k < frames.size(); ++k) {
+        if (static_cast<int>(k % groups) != group) continue;
+        const int f = frames[k];
         const std::string exr_f = expand_frame(exr, f), png_f = expand_frame(png, f);
         // An output counts only when complete: both are written whole and renamed together.
         if (args.resume && fs::exists(exr_f) && fs::exists(png_f)) {
-            if (!args.quiet && (!args.ranks || args.ranks->rank() == 0)) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
+            if (!args.quiet && speaks) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
                                           exr_f.c_str());
             continue;
         }
-        if (!args.quiet && (!args.ranks || args.ranks->rank() == 0))
-            std::fprintf(stderr, "frame %d\n", f);
+        if (!args.quiet && speaks) std::fprintf(stderr, "frame %d\n", f);
         Report report;
         try {
-            report = render_and_write(args, frame_desc(desc, f), exr_f, png_f, nullptr);
+            report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr);
         } catch (const InputError& e) {  // say which frame
             throw InputError(e.file, e.field, e.reason + " (frame " + std::to_string(f) + ")");
         }
-        if (args.ranks && args.ranks->rank() != 0) continue;
+        if (!speaks) continue;
         if (args.json) {
             nlohmann::json j = report_json(report);
             j["frame"] = f;
@@ -295,8 +307,7 @@ int run_render(const RenderArgs& args) {
             std::cout << "frame " << f << "\n" << report_text(report);
         }
     }
-    if (args.json && (!args.ranks || args.ranks->rank() == 0))
-        std::cout << reports.dump(2) << "\n";
+    if (args.json && speaks) std::cout << reports.dump(2) << "\n";
     return 0;
 }
 

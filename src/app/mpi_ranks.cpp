@@ -11,11 +11,22 @@ namespace {
 
 class MpiRanks final : public Ranks {
 public:
-    MpiRanks() {
-        MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-        MPI_Comm_size(MPI_COMM_WORLD, &size_);
+    /// The world (finalised with it), or a communicator split from it (freed with it).
+    explicit MpiRanks(MPI_Comm comm = MPI_COMM_WORLD) : comm_(comm) {
+        MPI_Comm_rank(comm_, &rank_);
+        MPI_Comm_size(comm_, &size_);
     }
-    ~MpiRanks() override { MPI_Finalize(); }
+    ~MpiRanks() override {
+        if (comm_ == MPI_COMM_WORLD)
+            MPI_Finalize();
+        else
+            MPI_Comm_free(&comm_);
+    }
+    std::unique_ptr<Ranks> split(int group) override {
+        MPI_Comm sub;
+        MPI_Comm_split(comm_, group, rank_, &sub);
+        return std::make_unique<MpiRanks>(sub);
+    }
     int rank() const override { return rank_; }
     int size() const override { return size_; }
     // In chunks: MPI counts are ints, and a 1920x1080 film with its layers is 44 million values.
@@ -25,17 +36,18 @@ public:
         for (size_t at = 0; at < values->size(); at += kChunk) {
             const int n = static_cast<int>(std::min(kChunk, values->size() - at));
             MPI_Reduce(values->data() + at, rank_ == 0 ? out.data() + at : nullptr, n, MPI_INT64_T,
-                       MPI_SUM, 0, MPI_COMM_WORLD);
+                       MPI_SUM, 0, comm_);
         }
         if (rank_ == 0) *values = std::move(out);
     }
     bool any(bool mine) override {
         int in = mine ? 1 : 0, out = 0;
-        MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, MPI_COMM_WORLD);
+        MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LOR, comm_);
         return out != 0;
     }
 
 private:
+    MPI_Comm comm_;
     int rank_ = 0, size_ = 1;
 };
 

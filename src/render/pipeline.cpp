@@ -112,8 +112,10 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
         std::vector<int64_t> c = counts();
         if (sum.values.empty()) sum.add(Film(desc.camera.width, desc.camera.height, photon));
         if (ranks) {
+            const Timer reduce;
             ranks->sum_to_root(&c);
             ranks->sum_to_root(&sum.values);
+            add_phase(&report, "reduce", reduce.seconds());
         }
         if (root) {
             set_counts(c);

@@ -4,6 +4,7 @@
 // headers stay in app/. Every rank must call each operation in the same order.
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace fogmap {
@@ -18,6 +19,9 @@ public:
     virtual void sum_to_root(std::vector<int64_t>* values) = 0;
     /// True on every rank when any rank passes true.
     virtual bool any(bool mine) = 0;
+    /// The ranks passing the same `group` as this one, ranked as here (MPI_Comm_split): the
+    /// groups a sequence's frames are dealt to. Collective.
+    virtual std::unique_ptr<Ranks> split(int group) = 0;
 };
 
 }  // namespace fogmap
