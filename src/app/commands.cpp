@@ -10,9 +10,9 @@
 #include "core/world_range.h"
 #include "media/density_grid.h"
 #include "media/volume_gen.h"
+#include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/metrics.h"
-#include "render/checkpoint.h"
 #include "render/pipeline.h"
 #include "render/ranks.h"
 #include "render/report.h"
@@ -20,10 +20,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <algorithm>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -194,13 +194,15 @@ int run_render(const RenderArgs& args) {
     for (const auto& [path, option] : {std::pair{exr, "-o"}, std::pair{png, "--png"}}) {
         if (sequence && !has_frame_pattern(path))
             throw InputError("", option,
-                             "'" + path + "' has no frame pattern, so every frame would write "
-                             "it; with --frames expected one such as out/smoke.####.exr "
-                             "(####, $F4 or %04d)");
+                             "'" + path +
+                                 "' has no frame pattern, so every frame would write "
+                                 "it; with --frames expected one such as out/smoke.####.exr "
+                                 "(####, $F4 or %04d)");
         if (!sequence && has_frame_pattern(path))
             throw InputError("", option,
-                             "'" + path + "' holds a frame pattern; expected --frames "
-                             "FIRST-LAST to render a sequence");
+                             "'" + path +
+                                 "' holds a frame pattern; expected --frames "
+                                 "FIRST-LAST to render a sequence");
     }
     if (sequence && !args.reference.empty())
         throw InputError("", "--reference", "cannot be combined with --frames; expected one");
@@ -287,8 +289,8 @@ int run_render(const RenderArgs& args) {
         const std::string exr_f = expand_frame(exr, f), png_f = expand_frame(png, f);
         // An output counts only when complete: both are written whole and renamed together.
         if (args.resume && fs::exists(exr_f) && fs::exists(png_f)) {
-            if (!args.quiet && speaks) std::fprintf(stderr, "frame %d: %s exists, skipped\n", f,
-                                          exr_f.c_str());
+            if (!args.quiet && speaks)
+                std::fprintf(stderr, "frame %d: %s exists, skipped\n", f, exr_f.c_str());
             continue;
         }
         if (!args.quiet && speaks) std::fprintf(stderr, "frame %d\n", f);
@@ -373,8 +375,9 @@ int run_volume(const VolumeArgs& args) {
     if (args.frames.empty()) {
         if (has_frame_pattern(args.output))
             throw InputError("", "-o",
-                             "'" + args.output + "' holds a frame pattern; expected --frames "
-                             "FIRST-LAST to write a sequence");
+                             "'" + args.output +
+                                 "' holds a frame pattern; expected --frames "
+                                 "FIRST-LAST to write a sequence");
         check_output_path(args.output, "-o");
         create_output_folder(args.output);
         generate_volume(s, args.output);
@@ -384,8 +387,9 @@ int run_volume(const VolumeArgs& args) {
     const FrameRange range = parse_frame_range(args.frames, "--frames");
     if (!has_frame_pattern(args.output))
         throw InputError("", "-o",
-                         "'" + args.output + "' has no frame pattern; with --frames expected "
-                         "one such as volumes/plume.####.vdb (####, $F4 or %04d)");
+                         "'" + args.output +
+                             "' has no frame pattern; with --frames expected "
+                             "one such as volumes/plume.####.vdb (####, $F4 or %04d)");
     check_output_path(expand_frame(args.output, range.first), "-o");
     create_output_folder(expand_frame(args.output, range.first));
     for (const int f : range.frames()) {

@@ -59,8 +59,10 @@ std::vector<int> FrameRange::frames() const {
 FrameRange parse_frame_range(const std::string& text, const std::string& option) {
     const auto fail = [&](const std::string& why) {
         throw InputError("", option,
-                         "found '" + text + "'; expected FIRST-LAST or FIRST-LAST:STEP (e.g. "
-                         "1-48 or 1-48:2)" + (why.empty() ? "" : ": " + why));
+                         "found '" + text +
+                             "'; expected FIRST-LAST or FIRST-LAST:STEP (e.g. "
+                             "1-48 or 1-48:2)" +
+                             (why.empty() ? "" : ": " + why));
     };
     // Numbers: an optional sign, digits; the range's dash follows the first number.
     size_t i = 0;

@@ -50,9 +50,10 @@ Checkpoint read_checkpoint(const std::string& path, const std::string& option,
     Checkpoint c;
     get(&c.fingerprint);
     if (c.fingerprint != fingerprint)
-        fail("written for another scene or other settings (only progressive.iterations, "
-             "progressive.time_budget and render.threads may change between a run and its "
-             "resumption); remove it to start again");
+        fail(
+            "written for another scene or other settings (only progressive.iterations, "
+            "progressive.time_budget and render.threads may change between a run and its "
+            "resumption); remove it to start again");
     int64_t iterations, width, height, layered, n_counts, n_values;
     get(&iterations);
     get(&width);

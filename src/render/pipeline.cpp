@@ -139,7 +139,8 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     int own = 0;  // iterations this rank ran itself
     for (int round = 0;; ++round) {
         const int i = base + round * n_ranks + my_rank + 1;
-        const bool runs = !progressive ? round == 0 && root : !(p.iterations > 0 && i > p.iterations);
+        const bool runs =
+            !progressive ? round == 0 && root : !(p.iterations > 0 && i > p.iterations);
         if (runs) {
             ++mine;
             ++own;
@@ -159,8 +160,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                             {{"name", s.name},
                              {"attempts", s.attempts},
                              {"photons", s.photons},
-                             {"media_share",
-                              s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
+                             {"media_share", s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
                              {"longest_path", s.longest},
                              {"stored",
                               {{"global", s.stored[0]},
@@ -207,9 +207,10 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             report.render_s += stats.render_s;
             report.threads = stats.threads;
             it.elapsed_s = timer.seconds();
+            // The running error: of the mean so far, known to a lone rank that started at 1.
             if (reference && progressive && n_ranks == 1 && base == 0)
                 it.rel_mse = image_error(sum.mean(mine).beauty, *reference).rel_mse;
-            else if (reference)
+            else if (reference && !progressive)
                 it.rel_mse = image_error(out.film.beauty, *reference).rel_mse;
             report.iterations.push_back(it);
             if (progressive && !quiet)

@@ -14,7 +14,6 @@
 #include <cstdint>
 #include <functional>
 
-
 namespace fogmap {
 
 class Ranks;

@@ -25,8 +25,9 @@ protected:
             << "mpirun not found: scripts/debian-packages installs openmpi-bin";
     }
     test::RunResult run(const std::string& args, int ranks) {
-        const std::string mpirun = "mpirun --allow-run-as-root --oversubscribe --bind-to none -np " +
-                                   std::to_string(ranks) + " ";
+        const std::string mpirun =
+            "mpirun --allow-run-as-root --oversubscribe --bind-to none -np " +
+            std::to_string(ranks) + " ";
         return test::run_fogmap(args, dir_, ranks > 0 ? mpirun : "");
     }
     std::string at(const std::string& name) const { return (dir_ / name).string(); }
@@ -61,8 +62,7 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
         EXPECT_EQ(report_line(r.out, "photons emitted"), report_line(plain.out, "photons emitted"));
         EXPECT_EQ(report_line(r.out, "samples"), report_line(plain.out, "samples"));
         if (ranks > 1) {
-            EXPECT_NE(r.out.find(std::to_string(ranks) + " MPI ranks"), std::string::npos)
-                << r.out;
+            EXPECT_NE(r.out.find(std::to_string(ranks) + " MPI ranks"), std::string::npos) << r.out;
         }
     }
 }
@@ -162,7 +162,8 @@ TEST_F(Mpi, ACheckpointOfOtherSettingsIsRefused) {
     tmp_.write("c.exr.checkpoint", "fogmap checkpoint 1\n" + std::string(80, '\x01'));
     const test::RunResult r = run("render -q " + scene +
                                       " --set camera.width=8 --set camera.height=6 "
-                                      "--set progressive.iterations=2 --resume -o " + exr,
+                                      "--set progressive.iterations=2 --resume -o " +
+                                      exr,
                                   0);
     EXPECT_EQ(r.code, 2);
     EXPECT_NE(r.err.find("c.exr.checkpoint: --resume: written for another scene"),

@@ -43,8 +43,10 @@ bool same_pixels(const Image& a, const Image& b) {
 
 TEST_F(Sequence, EveryFrameRendersFromItsOwnFileAndResumeSkipsFinishedOnes) {
     make_sequence(3);
-    for (int f = 1; f <= 3; ++f) EXPECT_TRUE(fs::exists(at("vol/p.000" + std::to_string(f) + ".vdb")));
-    const std::string render = "render -q " + at("s.json") + " --frames 1-3 -o " + at("out/f.####.exr");
+    for (int f = 1; f <= 3; ++f)
+        EXPECT_TRUE(fs::exists(at("vol/p.000" + std::to_string(f) + ".vdb")));
+    const std::string render =
+        "render -q " + at("s.json") + " --frames 1-3 -o " + at("out/f.####.exr");
     test::RunResult r = run(render);
     ASSERT_EQ(r.code, 0) << r.err;
     Image frames[3];

@@ -38,8 +38,8 @@ TEST(Frames, RangesListTheirFrames) {
 }
 
 TEST(Frames, BadRangesAreInputErrors) {
-    for (const char* bad : {"", "a-b", "5-1", "1-5:0", "1-5:-1", "1-", "1-5:", "1..5",
-                            "1-5x", "1-9999999999"}) {
+    for (const char* bad :
+         {"", "a-b", "5-1", "1-5:0", "1-5:-1", "1-", "1-5:", "1..5", "1-5x", "1-9999999999"}) {
         SCOPED_TRACE(bad);
         const InputError e = test::catch_input_error([&] { parse_frame_range(bad, "--frames"); });
         EXPECT_EQ(e.field, "--frames");
