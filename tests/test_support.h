@@ -80,6 +80,22 @@ inline RunResult run_fogmap(const std::string& args, const fs::path& dir,
     return r;
 }
 
+/// Frames 1..n of a small generated plume, `dir`/vol/p.####.vdb, and `dir`/s.json, a path-traced
+/// scene rendering them (16x12, 2 spp). Fails the test if fogmap cannot write them.
+inline void write_plume_sequence(const fs::path& dir, int n) {
+    const RunResult r = run_fogmap("volume plume --frames 1-" + std::to_string(n) + " -o " +
+                                       (dir / "vol/p.####.vdb").string() +
+                                       " --resolution 16 --voxel-size 0.1",
+                                   dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    spit(dir / "s.json", R"({
+  "camera": {"position": [0, 0.8, 3], "look_at": [0, 0.8, 0], "width": 16, "height": 12},
+  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
+  "media": [{"type": "vdb", "file": "vol/p.####.vdb", "sigma_s": 20, "sigma_a": 1}],
+  "render": {"integrator": "path", "spp": 2}
+})");
+}
+
 /// For a test whose shared volume (../shared/volumes) is missing: records a skip, or, when the
 /// environment variable CI is "true", a failure (a CI machine must have the volumes, and a
 /// silent skip there would hide the test). The caller returns right after:

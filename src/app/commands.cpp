@@ -16,6 +16,7 @@
 #include "render/pipeline.h"
 #include "render/ranks.h"
 #include "render/report.h"
+#include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
 #include <nlohmann/json.hpp>
@@ -159,12 +160,6 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
     return std::move(report);
 }
 
-/// A VDB medium's file as load_scene opens it (relative to the scene file's folder).
-std::string medium_path(const SceneDesc& desc, const std::string& file) {
-    const fs::path p(file);
-    return p.is_absolute() || desc.base_dir.empty() ? file : (fs::path(desc.base_dir) / p).string();
-}
-
 /// `desc` for one frame: every VDB medium's file with its frame pattern expanded.
 SceneDesc frame_desc(SceneDesc desc, int frame) {
     for (MediumDesc& m : desc.media)
@@ -267,7 +262,7 @@ int run_render(const RenderArgs& args) {
         for (size_t i = 0; i < desc.media.size(); ++i) {
             const MediumDesc& m = desc.media[i];
             if (m.type != MediumType::Vdb) continue;
-            const std::string file = medium_path(desc, expand_frame(m.file, f));
+            const std::string file = resolve(desc, expand_frame(m.file, f));
             if (!fs::exists(file))
                 throw InputError(file, "/media/" + std::to_string(i) + "/file",
                                  "frame " + std::to_string(f) + " of --frames " + args.frames +

@@ -15,12 +15,6 @@ namespace fogmap {
 
 namespace {
 
-std::string resolve(const SceneDesc& desc, const std::string& file) {
-    const std::filesystem::path p(file);
-    if (p.is_absolute() || desc.base_dir.empty()) return file;
-    return (std::filesystem::path(desc.base_dir) / p).string();
-}
-
 MediumParams medium_params(const MediumDesc& m) {
     return MediumParams{m.sigma_s * m.density_scale, m.sigma_a * m.density_scale, m.g};
 }
@@ -175,6 +169,12 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
 }
 
 }  // namespace
+
+std::string resolve(const SceneDesc& desc, const std::string& file) {
+    const std::filesystem::path p(file);
+    if (p.is_absolute() || desc.base_dir.empty()) return file;
+    return (std::filesystem::path(desc.base_dir) / p).string();
+}
 
 double emitted_power(const Scene& scene) {
     double sum = 0.0;

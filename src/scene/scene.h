@@ -33,6 +33,10 @@ struct Scene {
     std::vector<std::string> emission_hints;
 };
 
+/// A data file named in the scene (mesh, VDB) as load_scene opens it: relative paths are relative
+/// to the scene file's folder.
+std::string resolve(const SceneDesc& desc, const std::string& file);
+
 /// Σ over media of emitted_power (W).
 double emitted_power(const Scene& scene);
 

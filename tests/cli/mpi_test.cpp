@@ -133,17 +133,7 @@ TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
 TEST_F(Mpi, SequenceFramesAreDealtToRankGroups) {
     // 3 frames over 2 ranks: the groups {0} and {1} take frames 1, 3 and 2; the images are those
     // of the run without MPI.
-    ASSERT_EQ(run("volume plume --frames 1-3 -o " + at("vol/p.####.vdb") +
-                      " --resolution 16 --voxel-size 0.1",
-                  0)
-                  .code,
-              0);
-    tmp_.write("s.json", R"({
-  "camera": {"position": [0, 0.8, 3], "look_at": [0, 0.8, 0], "width": 16, "height": 12},
-  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
-  "media": [{"type": "vdb", "file": "vol/p.####.vdb", "sigma_s": 20, "sigma_a": 1}],
-  "render": {"integrator": "path", "spp": 2}
-})");
+    test::write_plume_sequence(dir_, 3);
     const std::string render = "render -q " + at("s.json") + " --frames 1-3 -o ";
     ASSERT_EQ(run(render + at("plain/f.####.exr"), 0).code, 0);
     const test::RunResult r = run(render + at("mpi/f.####.exr"), 2);

@@ -20,18 +20,7 @@ protected:
     test::RunResult run(const std::string& args) { return test::run_fogmap(args, dir_); }
     std::string at(const std::string& name) const { return (dir_ / name).string(); }
 
-    /// Frames 1..n of a small generated plume in the test folder, and a scene rendering them.
-    void make_sequence(int n) {
-        const test::RunResult r = run("volume plume --frames 1-" + std::to_string(n) + " -o " +
-                                      at("vol/p.####.vdb") + " --resolution 16 --voxel-size 0.1");
-        ASSERT_EQ(r.code, 0) << r.err;
-        tmp_.write("s.json", R"({
-  "camera": {"position": [0, 0.8, 3], "look_at": [0, 0.8, 0], "width": 16, "height": 12},
-  "lights": [{"type": "sun", "direction": [0.3, -1, 0.2], "irradiance": 3}],
-  "media": [{"type": "vdb", "file": "vol/p.####.vdb", "sigma_s": 20, "sigma_a": 1}],
-  "render": {"integrator": "path", "spp": 2}
-})");
-    }
+    void make_sequence(int n) { test::write_plume_sequence(dir_, n); }
 
     test::TempDir tmp_{"fogmap_sequence"};
     const fs::path dir_ = tmp_.path();
