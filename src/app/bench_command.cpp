@@ -13,6 +13,7 @@
 #include "core/image.h"
 #include "core/output_files.h"
 #include "core/parallel.h"
+#include "core/ranks.h"
 #include "core/timer.h"
 #include "render/pipeline.h"
 #include "scene/scene_desc_json.h"
@@ -43,6 +44,7 @@ struct BenchArgs {
     int repeat = 1;
     std::string path_spp = "1,4,16,64";
     std::vector<std::string> overrides;
+    std::string ranks;  ///< "" = every rank of the job
     bool quiet = false;
 };
 
@@ -108,6 +110,28 @@ std::vector<int> parse_path_spp(const std::string& text) {
     return out;
 }
 
+/// The rank counts of --ranks, each at most the job's `available` ranks.
+std::vector<int> parse_ranks(const std::string& text, int available) {
+    if (text.empty()) return {available};
+    std::vector<int> out;
+    for (const std::string& v : split_values(text)) {
+        char* end = nullptr;
+        errno = 0;
+        const long n = std::strtol(v.c_str(), &end, 10);
+        if (v.empty() || *end != '\0' || errno != 0 || n < 1 || n > 1000000)
+            throw InputError(
+                "", "--ranks",
+                "'" + v + "' in '" + text + "': expected comma-separated rank counts >= 1");
+        if (n > available)
+            throw InputError("", "--ranks",
+                             "'" + v + "' in '" + text + "': this job has " +
+                                 std::to_string(available) + (available == 1 ? " rank" : " ranks") +
+                                 "; start fogmap bench under mpirun -np " + v + " (or more)");
+        out.push_back(int(n));
+    }
+    return out;
+}
+
 /// Writes every (path, text) pair to its temp file first and renames only when all succeeded,
 /// so the CSV and the plot appear together or not at all (core/output_files.h).
 void write_files_atomically(const std::vector<std::pair<std::string, std::string>>& files) {
@@ -121,7 +145,7 @@ void write_files_atomically(const std::vector<std::pair<std::string, std::string
 
 /// The number of runs the sweeps make, counted before any is built: the product of the value
 /// counts plus the path tracer runs. Throws InputError above kMaxBenchRuns, saying the count.
-void check_run_count(const std::vector<SweepAxis>& axes, size_t path_runs) {
+void check_run_count(const std::vector<SweepAxis>& axes, size_t path_runs, size_t rank_counts) {
     uint64_t runs = 1;
     bool overflow = false;
     std::string product;
@@ -131,12 +155,13 @@ void check_run_count(const std::vector<SweepAxis>& axes, size_t path_runs) {
         runs = overflow ? UINT64_MAX : runs * n;
         product += (product.empty() ? "" : " x ") + std::to_string(n);
     }
-    if (!overflow && runs + path_runs <= kMaxBenchRuns) return;
+    if (!overflow && (runs + path_runs) * rank_counts <= kMaxBenchRuns) return;
     throw InputError(
         "", "--sweep",
         "the sweeps make " + product + " = " +
             (overflow ? "more than " + std::to_string(UINT64_MAX) : std::to_string(runs)) +
-            " runs, plus " + std::to_string(path_runs) + " path tracer runs; expected at most " +
+            " runs, plus " + std::to_string(path_runs) + " path tracer runs, at " +
+            std::to_string(rank_counts) + " rank count(s); expected at most " +
             std::to_string(kMaxBenchRuns) + " runs per bench (sweep fewer values)");
 }
 
@@ -183,7 +208,10 @@ LogLogPlot make_plot(const std::vector<BenchRow>& rows, const BenchArgs& args,
     return plot;
 }
 
-int run_bench(const BenchArgs& args) {
+int run_bench(const BenchArgs& args, Ranks* world) {
+    // Under mpirun every rank makes the same checks and runs; rank 0 alone prints and writes.
+    const bool root = !world || world->rank() == 0;
+    const bool quiet = args.quiet || !root;
     // ---- Check every input before the first render. ----
     if (fs::path(args.csv).extension() != ".csv")
         throw InputError("", "--csv", "'" + args.csv + "' does not end in .csv");
@@ -209,7 +237,8 @@ int run_bench(const BenchArgs& args) {
         keys.push_back(axes.back().key);
     }
     const std::vector<int> path_spp = parse_path_spp(args.path_spp);
-    check_run_count(axes, path_spp.size());
+    const std::vector<int> rank_counts = parse_ranks(args.ranks, world ? world->size() : 1);
+    check_run_count(axes, path_spp.size(), rank_counts.size());
     const std::vector<std::pair<std::string, std::string>> inputs = {
         {args.scene, "scene file"}, {args.reference, "reference image"}};
     check_not_an_input(args.csv, "--csv", inputs);
@@ -218,7 +247,8 @@ int run_bench(const BenchArgs& args) {
     check_output_path(args.plot, "--plot");
 
     SceneDesc base = load_scene_desc(args.scene, args.overrides);
-    cap_threads(&base);  // the warning is printed; the runs below are capped the same way
+    const bool threads_set = base.render.threads > 0;
+    if (root) cap_threads(&base);  // the warning is printed; the runs below are capped the same way
     std::vector<SceneDesc> runs;
     std::vector<std::vector<std::string>> run_values;
     for (const std::vector<std::string>& assignment : sweep_runs(axes)) {
@@ -291,43 +321,60 @@ int run_bench(const BenchArgs& args) {
                    "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
         check_run_memory(runs[i], true);
     }
+    // Rank 0 decides whether the cached reference exists (it alone writes it).
     std::error_code exists_ec;
-    if (reference_desc && !fs::exists(reference_file, exists_ec))
-        check_output_path(reference_file, "--reference-spp");
+    bool have_reference = reference_desc && root && fs::exists(reference_file, exists_ec);
+    if (world) have_reference = world->any(have_reference);
+    if (reference_desc && !have_reference) check_output_path(reference_file, "--reference-spp");
 
     // ---- Reference. ----
     if (reference_desc) {
-        std::error_code ec;
-        if (fs::exists(reference_file, ec)) {
+        if (have_reference) {
             reference = read_exr(reference_file);
             check_finite(reference, reference_file);
             check_size(reference.width, reference.height, reference_file, *reference_desc,
                        "the scene");
-            if (!args.quiet)
-                std::fprintf(stderr, "reference: reusing %s\n", reference_file.c_str());
+            if (!quiet) std::fprintf(stderr, "reference: reusing %s\n", reference_file.c_str());
         } else {
-            if (!args.quiet)
+            if (!quiet)
                 std::fprintf(stderr, "reference: rendering path tracer at %d spp -> %s\n",
                              args.reference_spp, reference_file.c_str());
             const Timer timer;
-            reference = run_pipeline(*reference_desc, args.quiet).film.beauty;
-            create_output_folder(reference_file);
-            write_exr(reference_file, reference);
-            if (!args.quiet)
+            reference = run_pipeline(*reference_desc, quiet, nullptr, world).film.beauty;
+            if (root) {
+                create_output_folder(reference_file);
+                write_exr(reference_file, reference);
+            }
+            if (!quiet)
                 std::fprintf(stderr, "reference: done in %s\n", seconds(timer.seconds()).c_str());
         }
     }
 
     // ---- Runs. ----
+    // At each rank count R the job's first R ranks run the setting and the others sleep.
     std::vector<BenchRow> rows;
-    for (size_t i = 0; i < runs.size(); ++i) {
-        BenchRow row = run_bench_case(runs[i], args.repeat, reference);
-        row.swept = run_values[i];
-        if (!args.quiet)
-            std::fprintf(stderr, "[%zu/%zu] %s: %s, relMSE %.4g\n", i + 1, runs.size(),
-                         bench_label(row, keys).c_str(), seconds(row.total_s).c_str(), row.rel_mse);
-        rows.push_back(std::move(row));
-    }
+    const size_t total = runs.size() * rank_counts.size();
+    for (size_t i = 0; i < runs.size(); ++i)
+        for (int n : rank_counts) {
+            std::unique_ptr<Ranks> team = world ? world->split(world->rank() < n ? 0 : 1) : nullptr;
+            if (team && world->rank() >= n) {
+                world->wait_all();
+                continue;
+            }
+            SceneDesc d = runs[i];
+            if (team && !threads_set)
+                d.render.threads = std::max(1, thread_count(0) / team->on_this_machine());
+            BenchRow row = run_bench_case(d, args.repeat, reference, team.get());
+            if (world) world->wait_all();
+            row.swept = run_values[i];
+            if (!quiet)
+                std::fprintf(stderr, "[%zu/%zu] %s%s: %s, relMSE %.4g\n", rows.size() + 1, total,
+                             bench_label(row, keys).c_str(),
+                             world ? (", " + std::to_string(n) + " ranks").c_str() : "",
+                             seconds(row.total_s).c_str(), row.rel_mse);
+            rows.push_back(std::move(row));
+        }
+    if (!root) return 0;
 
     // ---- Outputs. ----
     std::string csv = bench_csv_header(keys);
@@ -338,7 +385,15 @@ int run_bench(const BenchArgs& args) {
     std::cout << "fogmap bench: " << args.scene << ", " << base.camera.width << "x"
               << base.camera.height << ", " << rows.size() << " runs, median of " << args.repeat
               << ", reference " << reference_file << "\n";
-    std::cout << bench_summary(rows, keys);
+    for (int n : rank_counts) {
+        std::vector<BenchRow> at_n;
+        for (const BenchRow& r : rows)
+            if (r.ranks == n) at_n.push_back(r);
+        if (rank_counts.size() > 1)
+            std::cout << "With " << n << (n == 1 ? " rank" : " ranks") << ":\n";
+        std::cout << bench_summary(at_n, keys);
+    }
+    std::cout << ranks_summary(rows, keys);
     std::cout << "wrote: " << args.csv << "\nwrote: " << args.plot << "\n";
     return 0;
 }
@@ -368,8 +423,12 @@ Subcommand add_bench_command(CLI::App& app) {
     sub->add_option("--set", args->overrides, "override a setting for every run, e.g. a.b=1")
         ->expected(1)
         ->take_all();
+    sub->add_option("--ranks", args->ranks,
+                    "under mpirun: run every setting on each of these rank counts, e.g. 1,2 "
+                    "(default: all the job's ranks); threads per rank: the machine's cores over "
+                    "the ranks on it, unless render.threads is set");
     sub->add_flag("-q,--quiet", args->quiet, "no progress on stderr");
-    return {sub, [args] { return run_bench(*args); }};
+    return {sub, [args](Ranks* ranks) { return run_bench(*args, ranks); }, /*mpi=*/true};
 }
 
 }  // namespace fogmap

@@ -60,10 +60,12 @@ void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs);
 
 /// A subcommand registered by its own file: when `app` was chosen on the command line, main
-/// calls `run` and exits with its result (InputError → 2 as everywhere).
+/// calls `run` and exits with its result (InputError → 2 as everywhere). With `mpi`, main starts
+/// MPI under mpirun first and passes the job's ranks (else null).
 struct Subcommand {
     CLI::App* app;
-    std::function<int()> run;
+    std::function<int(Ranks*)> run;
+    bool mpi = false;
 };
 
 /// `fogmap validate slab ...` (app/validate_command.cpp).

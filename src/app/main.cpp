@@ -114,11 +114,21 @@ int main(int argc, char** argv) {
     }
     // mpirun: every rank runs the render; rank 0 alone prints and writes (app/mpi_ranks.h).
     std::unique_ptr<Ranks> ranks;
-    if (*r) {
+    bool mpi = bool(*r);
+    for (const Subcommand& sub : extra) mpi = mpi || (bool(*sub.app) && sub.mpi);
+    if (mpi) {
         ranks = start_mpi(&argc, &argv);
         render.ranks = ranks.get();
     }
     const bool root = !ranks || ranks->rank() == 0;
+    // A failure other than bad input is this rank's alone: the others may wait for it in a
+    // collective, so it ends the whole job (MPI_Abort) rather than leave them hanging.
+    const auto failed = [&](int code, const std::string& text) {
+        const std::string who = ranks ? "rank " + std::to_string(ranks->rank()) + ": " : "";
+        std::fprintf(stderr, "fogmap: error: %s%s\n", who.c_str(), text.c_str());
+        if (ranks && ranks->size() > 1) abort_mpi(code);
+        return code;
+    };
     try {
         if (*r) {
             if (r->count("--spp")) render.overrides.push_back("render.spp=" + std::to_string(spp));
@@ -142,25 +152,20 @@ int main(int argc, char** argv) {
         if (*info) return run_info(info_path, info_json);
         if (*vol) return run_volume(volume);
         for (const Subcommand& sub : extra)
-            if (*sub.app) return sub.run();
+            if (*sub.app) return sub.run(ranks.get());
     } catch (const InputError& e) {
         // Every rank reads the same input and fails alike; the error is said once.
         if (root) std::fprintf(stderr, "fogmap: error: %s\n", e.what());
         return 2;
     } catch (const OutOfMemory& e) {
-        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
-        return 1;
+        return failed(1, e.what());
     } catch (const std::bad_alloc&) {
         // An allocation nobody estimated: name the scene being rendered, if any.
         const std::string file = *r ? render.scene + ": " : std::string();
-        std::fprintf(stderr,
-                     "fogmap: error: %sout of memory (the process held about %s when an "
-                     "allocation failed)\n",
-                     file.c_str(), mb_text(peak_bytes()).c_str());
-        return 1;
+        return failed(1, file + "out of memory (the process held about " + mb_text(peak_bytes()) +
+                             " when an allocation failed)");
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "fogmap: error: %s\n", e.what());
-        return 1;
+        return failed(1, e.what());
     }
     return 0;
 }

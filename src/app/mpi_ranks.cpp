@@ -3,7 +3,11 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdint>
 #include <cstdlib>
+#include <thread>
+#include <vector>
 
 namespace fogmap {
 
@@ -39,6 +43,49 @@ public:
                        MPI_SUM, 0, comm_);
         }
         if (rank_ == 0) *values = std::move(out);
+    }
+    // In pieces of at most 2^30 bytes over all ranks: MPI counts and displacements are ints.
+    std::vector<std::vector<uint8_t>> all_gather(const std::vector<uint8_t>& mine) override {
+        const uint64_t n = mine.size();
+        std::vector<uint64_t> sizes(size_);
+        MPI_Allgather(&n, 1, MPI_UINT64_T, sizes.data(), 1, MPI_UINT64_T, comm_);
+        std::vector<std::vector<uint8_t>> out(size_);
+        for (int q = 0; q < size_; ++q) out[q].resize(sizes[q]);
+        const uint64_t piece = (uint64_t(1) << 30) / uint64_t(size_);
+        std::vector<int> counts(size_), displs(size_);
+        std::vector<uint8_t> buffer;
+        for (uint64_t at = 0;; at += piece) {
+            int total = 0;
+            for (int q = 0; q < size_; ++q) {
+                counts[q] = int(sizes[q] > at ? std::min(piece, sizes[q] - at) : 0);
+                displs[q] = total;
+                total += counts[q];
+            }
+            if (total == 0) break;
+            buffer.resize(size_t(total));
+            MPI_Allgatherv(mine.data() + std::min(at, n), counts[rank_], MPI_BYTE, buffer.data(),
+                           counts.data(), displs.data(), MPI_BYTE, comm_);
+            for (int q = 0; q < size_; ++q)
+                std::copy_n(buffer.data() + displs[q], counts[q], out[q].data() + at);
+        }
+        return out;
+    }
+    void wait_all() override {
+        MPI_Request request;
+        MPI_Ibarrier(comm_, &request);
+        for (int done = 0;;) {
+            MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+            if (done) return;
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+    }
+    int on_this_machine() override {
+        MPI_Comm local;
+        MPI_Comm_split_type(comm_, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &local);
+        int n = 1;
+        MPI_Comm_size(local, &n);
+        MPI_Comm_free(&local);
+        return n;
     }
     bool any(bool mine) override {
         int in = mine ? 1 : 0, out = 0;

@@ -3,7 +3,7 @@
 // when the process was started by mpirun (Open MPI's environment), so a plain `fogmap` runs
 // exactly as without MPI. MPI's headers stay in mpi_ranks.cpp.
 
-#include "render/ranks.h"
+#include "core/ranks.h"
 
 #include <memory>
 

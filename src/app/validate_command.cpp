@@ -194,7 +194,7 @@ Subcommand add_validate_command(CLI::App& app) {
                      "photons.max_bounces); more than 0.1% of the power cut exits 1");
     slab->add_option("--voxels", args->voxels, "voxels across the thickness (default 32)");
     slab->add_flag("--json", args->json, "print the result as JSON");
-    return {sub, [args] { return run_slab_command(*args); }};
+    return {sub, [args](Ranks*) { return run_slab_command(*args); }};
 }
 
 }  // namespace fogmap

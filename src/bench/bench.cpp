@@ -1,5 +1,6 @@
 #include "bench/bench.h"
 
+#include "core/ranks.h"
 #include "core/timer.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
@@ -89,7 +90,7 @@ double median(std::vector<double> v) {
     return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference) {
+BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference, Ranks* ranks) {
     BenchRow row;
     row.method = to_string(desc.render.integrator);
     row.spp = desc.render.spp;
@@ -98,14 +99,17 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
     std::vector<double> totals, rmse, rel_mse, bias;
     for (int rep = 0; rep < row.repeats; ++rep) {
         const Timer timer;
-        const PipelineResult result = run_pipeline(desc, /*quiet=*/true);
+        const PipelineResult result = run_pipeline(desc, /*quiet=*/true, nullptr, ranks);
         totals.push_back(timer.seconds());
+        row.ranks = result.report.ranks;
+        row.threads = result.report.threads;
         for (size_t p = 0; p < kBenchPhases.size(); ++p) {
             double s = 0.0;
             for (const auto& [name, t] : result.report.phases_s)
                 if (name == kBenchPhases[p]) s += t;
             phases[p].push_back(s);
         }
+        if (ranks && ranks->rank() != 0) continue;  // rank 0 alone holds the image
         const ImageError e = image_error(result.film.beauty, reference);
         rmse.push_back(e.rmse);
         rel_mse.push_back(e.rel_mse);
@@ -128,7 +132,7 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
 std::string bench_csv_header(const std::vector<std::string>& swept_keys) {
     std::string h = "method";
     for (const std::string& k : swept_keys) h += "," + csv_field(k);
-    h += ",spp,repeats";
+    h += ",spp,repeats,ranks,threads";
     for (const char* phase : kBenchPhases) {
         std::string name = std::string(phase) + "_s";
         std::replace(name.begin(), name.end(), ' ', '_');
@@ -142,7 +146,8 @@ std::string bench_csv_header(const std::vector<std::string>& swept_keys) {
 std::string bench_csv_row(const BenchRow& row) {
     std::string s = csv_field(row.method);
     for (const std::string& v : row.swept) s += "," + csv_field(v);
-    s += "," + std::to_string(row.spp) + "," + std::to_string(row.repeats);
+    s += "," + std::to_string(row.spp) + "," + std::to_string(row.repeats) + "," +
+         std::to_string(row.ranks) + "," + std::to_string(row.threads);
     for (double t : row.phase_s) s += "," + number(t);
     s += "," + number(row.total_s);
     for (uint64_t n : row.stored) s += "," + std::to_string(n);
@@ -220,6 +225,56 @@ std::string bench_summary(const std::vector<BenchRow>& rows,
             << r->spp << "\n";
     if (path.empty()) out << "  (no path runs)\n";
     return out.str();
+}
+
+std::string ranks_summary(const std::vector<BenchRow>& rows,
+                          const std::vector<std::string>& swept_keys) {
+    // Rows with the same method, spp and swept values are one setting.
+    auto setting = [&](const BenchRow& r) {
+        std::string key = r.method + " " + std::to_string(r.spp);
+        for (const std::string& v : r.swept) key += "\n" + v;
+        return key;
+    };
+    std::vector<std::string> keys;
+    std::vector<std::vector<const BenchRow*>> groups;
+    for (const BenchRow& r : rows) {
+        const size_t g = std::find(keys.begin(), keys.end(), setting(r)) - keys.begin();
+        if (g == keys.size()) {
+            keys.push_back(setting(r));
+            groups.emplace_back();
+        }
+        groups[g].push_back(&r);
+    }
+    std::ostringstream out;
+    for (const std::vector<const BenchRow*>& g : groups) {
+        if (g.size() < 2) continue;
+        const BenchRow* base = *std::min_element(
+            g.begin(), g.end(),
+            [](const BenchRow* a, const BenchRow* b) { return a->ranks < b->ranks; });
+        out << "  " << bench_label(*base, swept_keys) << ":\n";
+        for (const BenchRow* r : g) {
+            double comm = 0.0;
+            for (size_t p = 0; p < kBenchPhases.size(); ++p)
+                if (std::string(kBenchPhases[p]) == "photon exchange" ||
+                    std::string(kBenchPhases[p]) == "reduce")
+                    comm += r->phase_s[p];
+            const std::string who =
+                std::to_string(r->ranks) + (r->ranks == 1 ? " rank" : " ranks") + " x " +
+                std::to_string(r->threads) + (r->threads == 1 ? " thread" : " threads");
+            out << "    " << padded(who, 22) << padded(short_number(r->total_s) + " s", 12)
+                << padded(short_number(base->total_s / r->total_s) + "x the speed", 20)
+                << padded("communication " +
+                              short_number(r->total_s > 0.0 ? 100.0 * comm / r->total_s : 0.0) +
+                              "%",
+                          24)
+                << "relMSE " << short_number(r->rel_mse) << "\n";
+        }
+    }
+    if (out.str().empty()) return "";
+    return "Across rank counts (speed: the fewest ranks' time over this time; communication: "
+           "photon "
+           "exchange and reduction, share of the run):\n" +
+           out.str();
 }
 
 }  // namespace fogmap

@@ -14,6 +14,8 @@
 
 namespace fogmap {
 
+class Ranks;
+
 /// One `--sweep KEY=V1,V2,...`: a dotted settings key and its values as override text.
 struct SweepAxis {
     std::string key;
@@ -25,8 +27,10 @@ struct SweepAxis {
 std::vector<std::vector<std::string>> sweep_runs(const std::vector<SweepAxis>& axes);
 
 /// Phases reported by run_pipeline, in CSV order; a phase a run does not have is 0.
-inline constexpr std::array<const char*, 7> kBenchPhases{
-    "load", "photon pass", "build global", "build caustic", "build volume", "precompute", "render"};
+/// "photon exchange" and "reduce" are the communication between MPI ranks (0 for one process).
+inline constexpr std::array<const char*, 9> kBenchPhases{
+    "load",       "photon pass", "build global",    "build caustic", "build volume",
+    "precompute", "render",      "photon exchange", "reduce"};
 /// Photon maps, in CSV order.
 inline constexpr std::array<const char*, 3> kBenchMaps{"global", "caustic", "volume"};
 
@@ -36,6 +40,8 @@ struct BenchRow {
     std::vector<std::string> swept;  ///< value of each swept key ("" = not swept here)
     int spp = 0;                     ///< render.spp of the run
     int repeats = 0;                 ///< runs the medians are taken over
+    int ranks = 1;                   ///< MPI ranks the run was spread over
+    int threads = 0;                 ///< worker threads per rank
     std::array<double, kBenchPhases.size()> phase_s{};  ///< median wall time per phase
     double total_s = 0.0;  ///< median wall time of the whole run_pipeline
     std::array<uint64_t, kBenchMaps.size()> stored{};  ///< photons stored per map
@@ -46,14 +52,16 @@ struct BenchRow {
 /// Runs `desc` `repeats` (>= 1) times through run_pipeline (quietly) and measures each image
 /// against `reference` (same size, checked by the caller); times and errors are medians over the
 /// repeats (images are deterministic per seed, so normally only the times vary). Throws what
-/// run_pipeline throws.
-BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference);
+/// run_pipeline throws. With `ranks` (core/ranks.h) all of them run it and rank 0's row is the
+/// measurement (the others' rows hold no error).
+BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference,
+                        Ranks* ranks = nullptr);
 
 /// Median of `v` (mean of the middle two for an even count); 0 for an empty vector.
 double median(std::vector<double> v);
 
-/// CSV header: method, the swept keys, spp, repeats, <phase>_s..., total_s, stored_<map>...,
-/// bytes, rmse, rel_mse, bias.
+/// CSV header: method, the swept keys, spp, repeats, ranks, threads, <phase>_s..., total_s,
+/// stored_<map>..., bytes, rmse, rel_mse, bias.
 std::string bench_csv_header(const std::vector<std::string>& swept_keys);
 /// One CSV line (with '\n'); fields with ',' or '"' are quoted.
 std::string bench_csv_row(const BenchRow& row);
@@ -70,6 +78,12 @@ std::string bench_label(const BenchRow& row, const std::vector<std::string>& swe
 /// The stdout summary: the photon frontier (best setting at each time budget, with the path
 /// tracer's relMSE at the same time interpolated log-log between its runs) and the path rows.
 std::string bench_summary(const std::vector<BenchRow>& rows,
+                          const std::vector<std::string>& swept_keys);
+
+/// For rows run at several rank counts (the same method, spp and swept values, in the order
+/// run): each count's time, its speed against the fewest ranks' (time ratio), the share of the
+/// run spent communicating (photon exchange + reduce) and relMSE. "" when all rows have one count.
+std::string ranks_summary(const std::vector<BenchRow>& rows,
                           const std::vector<std::string>& swept_keys);
 
 }  // namespace fogmap

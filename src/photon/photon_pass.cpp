@@ -1,6 +1,7 @@
 #include "photon/photon_pass.h"
 
 #include "core/progress.h"
+#include "core/ranks.h"
 #include "core/sampling.h"
 #include "core/timer.h"
 #include "media/phase.h"
@@ -14,7 +15,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
+#include <type_traits>
 
 namespace fogmap {
 
@@ -162,6 +165,43 @@ struct ChunkOut {
     double capped_power = 0.0;  ///< Σ average(relative power) of paths the bounce limit cut
 };
 
+/// A chunk's output as bytes, for the ranks sharing a pass (the same machine's layout on every
+/// rank: the ranks of one job run one build).
+template <class T>
+void put(std::vector<uint8_t>* bytes, const T* values, size_t n) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const uint8_t*>(values);
+    bytes->insert(bytes->end(), p, p + n * sizeof(T));
+}
+
+void put_chunk(std::vector<uint8_t>* bytes, const ChunkOut& o) {
+    const uint64_t n = o.photons.size();
+    const uint64_t counts[] = {o.accepted, o.met_media, o.interactions, o.longest, o.capped, n};
+    put(bytes, counts, 6);
+    put(bytes, &o.capped_power, 1);
+    put(bytes, o.photons.data(), n);
+}
+
+/// Reads back what put_chunk wrote, advancing *at.
+ChunkOut get_chunk(const uint8_t** at) {
+    auto get = [at](auto* values, size_t n) {
+        std::memcpy(values, *at, n * sizeof(*values));
+        *at += n * sizeof(*values);
+    };
+    uint64_t counts[6];
+    get(counts, 6);
+    ChunkOut o;
+    o.accepted = counts[0];
+    o.met_media = counts[1];
+    o.interactions = counts[2];
+    o.longest = counts[3];
+    o.capped = counts[4];
+    get(&o.capped_power, 1);
+    o.photons.resize(counts[5]);
+    get(o.photons.data(), o.photons.size());
+    return o;
+}
+
 /// Per (map, stream): photons stored, their summed relative power, and, once closed, the
 /// attempt count at which the map stopped taking that stream's photons.
 struct Pair {
@@ -174,7 +214,8 @@ struct Pair {
 }  // namespace
 
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
-                               const MarchSettings& march, uint64_t seed, bool quiet) {
+                               const MarchSettings& march, uint64_t seed, bool quiet,
+                               Ranks* ranks) {
     const Timer timer;
     PhotonPassResult result;
     std::array<StoredPhotons*, 3> maps{nullptr, nullptr, nullptr};
@@ -199,6 +240,9 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
         return result;
     }
     const size_t n_streams = set.streams.size();
+    // Ranks sharing the pass trace every n_ranks-th chunk of each round (the chunk count does
+    // not depend on the rank count) and exchange them before the merge.
+    const size_t n_ranks = ranks ? size_t(ranks->size()) : 1, my_rank = ranks ? ranks->rank() : 0;
     PhotonTracer tracer(scene, march, settings.max_bounces);
     tracer.set_bounce_owner(&set);
     std::array<bool, 3> open;  // maps still taking photons
@@ -242,6 +286,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             std::vector<Medium::Sampler> samplers;
             for (const Medium& m : scene.media) samplers.emplace_back(m);
             for (size_t j = r.begin(); j != r.end(); ++j) {
+                if (j % n_ranks != my_rank) continue;  // another rank's chunk
                 const Job& job = jobs[j];
                 const PhotonStream& st = set.streams[job.stream];
                 ChunkOut& o = out[j];
@@ -278,6 +323,17 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                 }
             }
         });
+        if (n_ranks > 1) {  // every rank gets every chunk, and all merge them alike
+            const Timer exchange;
+            std::vector<uint8_t> mine;
+            for (size_t j = my_rank; j < jobs.size(); j += n_ranks) put_chunk(&mine, out[j]);
+            const std::vector<std::vector<uint8_t>> all = ranks->all_gather(mine);
+            for (size_t q = 0; q < n_ranks; ++q) {
+                const uint8_t* at = all[q].data();
+                for (size_t j = q; j < jobs.size(); j += n_ranks) out[j] = get_chunk(&at);
+            }
+            result.exchange_s += exchange.seconds();
+        }
         for (size_t j = 0; j < jobs.size(); ++j) {
             const Job& job = jobs[j];
             const size_t s = job.stream;

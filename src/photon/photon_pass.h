@@ -62,14 +62,19 @@ struct PhotonPassResult {
     double capped_power = 0.0;
     float total_power = 0.0f;  ///< Σ over lights of the channel-average power (W)
     double time_s = 0.0;
+    double exchange_s = 0.0;  ///< of time_s, spent exchanging chunks between ranks
     std::vector<std::string> warnings;
 };
 
+class Ranks;
+
 /// Runs the photon pass for the maps the plan turns on, with `settings`' budgets, free paths as
 /// `march` says, and photon i drawing from Rng(seed, i, kPhotonStream). Progress on stderr
-/// unless quiet.
+/// unless quiet. With `ranks` (core/ranks.h) every rank calls it with the same arguments, each
+/// traces a share of the photons, and every rank returns the maps one process would build.
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
-                               const MarchSettings& march, uint64_t seed, bool quiet);
+                               const MarchSettings& march, uint64_t seed, bool quiet,
+                               Ranks* ranks = nullptr);
 
 /// The maps a path deposits photons into.
 enum class PhotonMapId : uint8_t { Global = 0, Caustic = 1, Volume = 2 };

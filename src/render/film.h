@@ -150,14 +150,15 @@ private:
     }
 };
 
-/// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image, spp samples
+/// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
+/// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
 /// uniforms, then trace(ray, rng, state) -> FilmSample; non-finite samples are dropped (counted)
 /// and the film holds the mean over spp. state = make_state() per tile; state.rays and
 /// state.capped are summed into *stats (may be null).
 template <class MakeState, class Trace>
-Film render_film(const Camera& camera, int spp, uint64_t seed, bool layered, bool quiet,
-                 RenderStats* stats, MakeState&& make_state, Trace&& trace) {
+Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
+                 bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0};
@@ -188,10 +189,10 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, bool layered, boo
         rays += state.rays;
         capped += state.capped;
     };
-    render_tiles(w, h, quiet, make_state, shade, end_tile);
+    const uint64_t pixels = render_tiles(w, h, share, quiet, make_state, shade, end_tile);
     if (stats) {
         stats->render_s = timer.seconds();
-        stats->samples = static_cast<uint64_t>(w) * h * spp;
+        stats->samples = pixels * static_cast<uint64_t>(spp);
         stats->rays = rays.load();
         stats->nonfinite = nonfinite.load();
         stats->capped = capped.load();

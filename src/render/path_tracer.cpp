@@ -240,7 +240,8 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
                  const VolumeGuide* guide) {
     const PathTracer tracer(scene, settings.max_depth, guide);
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, /*layered=*/false, quiet, stats,
+        Camera(scene.camera), settings.spp, settings.seed,
+        TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,
         [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts) {
             FilmSample sample;

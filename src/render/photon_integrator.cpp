@@ -201,7 +201,8 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, /*layered=*/true, quiet, stats,
+        Camera(scene.camera), settings.spp, settings.seed,
+        TileShare{settings.tile_index, settings.tile_count}, /*layered=*/true, quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts) {
             return integrator.radiance(ray, rng, ts);

@@ -5,18 +5,19 @@
 #include "core/timer.h"
 
 #include <nlohmann/json.hpp>
+#include "core/ranks.h"
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
 #include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/photon_integrator.h"
-#include "render/ranks.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <optional>
 #include <string>
@@ -36,6 +37,36 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
             out.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
                            (*map)->build_s, (*map)->stopped});
     return out;
+}
+
+/// The bits of every value of `film` (beauty, then each layer), one integer each.
+std::vector<int64_t> film_bits(const Film& film) {
+    std::vector<int64_t> bits;
+    auto put = [&](const Image& image) {
+        for (const Color& c : image.pixels)
+            for (int k = 0; k < 3; ++k) {
+                uint32_t b;
+                std::memcpy(&b, &c[k], sizeof b);
+                bits.push_back(b);
+            }
+    };
+    put(film.beauty);
+    for (const Image& layer : film.layers) put(layer);
+    return bits;
+}
+
+/// The inverse of film_bits on a film of the same shape.
+void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
+    size_t at = 0;
+    auto get = [&](Image& image) {
+        for (Color& c : image.pixels)
+            for (int k = 0; k < 3; ++k) {
+                const uint32_t b = static_cast<uint32_t>(bits[at++]);
+                std::memcpy(&c[k], &b, sizeof b);
+            }
+    };
+    get(film->beauty);
+    for (Image& layer : film->layers) get(layer);
 }
 
 /// The guide's settings: its radius is the volume gather's.
@@ -135,24 +166,30 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                                               iteration_seed(desc.render.seed, 1, true), true);
         first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
     }
+    // A plain render is shared: every rank traces a share of each photon round and builds the
+    // same maps (photon/photon_pass.h), then renders a share of the tiles.
+    Ranks* const pass_ranks = progressive ? nullptr : ranks;
     double checkpointed_s = 0.0;
     int own = 0;  // iterations this rank ran itself
     for (int round = 0;; ++round) {
-        const int i = base + round * n_ranks + my_rank + 1;
-        const bool runs =
-            !progressive ? round == 0 && root : !(p.iterations > 0 && i > p.iterations);
+        const int i = progressive ? base + round * n_ranks + my_rank + 1 : 1;
+        const bool runs = !progressive || !(p.iterations > 0 && i > p.iterations);
         if (runs) {
             ++mine;
             ++own;
             RenderSettings settings = desc.render;
             settings.seed = iteration_seed(desc.render.seed, i, progressive);
+            if (!progressive) {
+                settings.tile_index = my_rank;
+                settings.tile_count = n_ranks;
+            }
             IterationReport it;
             it.index = i;
             RenderStats stats;
             Film film;
             if (photon || guided) {
                 PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
-                                                      settings.seed, quiet_pass);
+                                                      settings.seed, quiet_pass, pass_ranks);
                 if (i == 1) {
                     for (const std::string& w : pass.warnings) warn(w);
                     for (const StreamReport& s : pass.streams)
@@ -168,6 +205,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                                {"volume", s.stored[2]}}}});
                 }
                 add_phase(&report, "photon pass", pass.time_s);
+                if (pass.exchange_s > 0.0) add_phase(&report, "photon exchange", pass.exchange_s);
                 report.photons_emitted += pass.emitted;
                 report.photons_capped += pass.capped;
                 report.photons_capped_power += pass.capped_power;
@@ -210,8 +248,6 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             // The running error: of the mean so far, known to a lone rank that started at 1.
             if (reference && progressive && n_ranks == 1 && base == 0)
                 it.rel_mse = image_error(sum.mean(mine).beauty, *reference).rel_mse;
-            else if (reference && !progressive)
-                it.rel_mse = image_error(out.film.beauty, *reference).rel_mse;
             report.iterations.push_back(it);
             if (progressive && !quiet)
                 std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
@@ -238,6 +274,25 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
         }
     }
     int iterations = 1;  // all ranks ran
+    if (!progressive && n_ranks > 1) {
+        // Each pixel is one rank's and 0 (bits 0) on the others: summing the values' bits as
+        // integers gives rank 0 the very floats one process renders.
+        std::vector<int64_t> c{int64_t(report.samples), int64_t(report.rays),
+                               int64_t(report.nonfinite), int64_t(report.depth_capped)};
+        std::vector<int64_t> bits = film_bits(out.film);
+        const Timer reduce;
+        ranks->sum_to_root(&c);
+        ranks->sum_to_root(&bits);
+        add_phase(&report, "reduce", reduce.seconds());
+        if (!root) return out;
+        set_film_bits(bits, &out.film);
+        report.samples = uint64_t(c[0]);
+        report.rays = uint64_t(c[1]);
+        report.nonfinite = uint64_t(c[2]);
+        report.depth_capped = uint64_t(c[3]);
+    }
+    if (reference && !progressive)
+        report.iterations.back().rel_mse = image_error(out.film.beauty, *reference).rel_mse;
     if (progressive) {
         gather_to_root();
         if (!root) return out;

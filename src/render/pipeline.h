@@ -38,10 +38,12 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// stderr unless quiet; warnings on stderr always (and in the report). `reference` (optional)
 /// feeds the per-iteration error of progressive runs. Throws InputError for unreadable scene data
 /// (meshes, VDB files).
-/// With `ranks` (render/ranks.h), every rank calls it: progressive iterations are split by index
-/// (rank r runs i ≡ r + 1 mod ranks) and summed in fixed point on rank 0, so the image is the same
-/// bits for any rank count; a plain render runs on rank 0 alone. Only rank 0's result (film,
-/// report with the summed counts) is meaningful; the other ranks print nothing.
+/// With `ranks` (core/ranks.h), every rank calls it: progressive iterations are split by index
+/// (rank r runs i ≡ r + 1 mod ranks) and summed in fixed point on rank 0; a plain render is
+/// shared: each rank traces a share of every photon round, all build the same maps, and each
+/// renders every ranks-th tile, rank 0 receiving the others' pixels exactly. Either way the image
+/// is the same bits for any rank count. Only rank 0's result (film, report with the summed
+/// counts) is meaningful; the other ranks print nothing.
 /// With `checkpoints` (progressive runs): starts after the iterations of checkpoints->resume (its
 /// sum and counts), and every checkpoints->every_s seconds, after a whole round, and at the end,
 /// passes rank 0's totals to checkpoints->write.

@@ -37,7 +37,7 @@ struct Report {
     nlohmann::json settings;                               ///< effective render settings
     std::vector<std::pair<std::string, double>> phases_s;  ///< phase name → wall seconds
     int width = 0, height = 0, spp = 0, threads = 0;
-    int ranks = 1;  ///< MPI ranks that ran (render/ranks.h); iterations lists rank 0's own
+    int ranks = 1;  ///< MPI ranks that ran (core/ranks.h); iterations lists rank 0's own
     uint64_t samples = 0, rays = 0, nonfinite = 0;
     double render_s = 0.0;
     std::vector<std::string> outputs;                  ///< files written

@@ -12,6 +12,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cstdint>
 
 namespace fogmap {
 
@@ -48,25 +50,38 @@ inline Vec2 pixel_jitter(int s, int spp, uint64_t key, Vec2 u) {
                 std::min((static_cast<float>(row) + u.y) * inv, 0x1.fffffep-1f));
 }
 
-/// Calls shade_pixel(x, y, state) for every pixel of a width x height image, with
-/// state = make_state() made once per tile, and end_tile(state) on the worker after each tile.
+/// The tiles one process renders: t ≡ index (mod count), rows of tiles in turn, so ranks sharing
+/// a render (render/pipeline.h) get alike shares of a picture's busy and empty parts.
+struct TileShare {
+    int index = 0, count = 1;
+};
+
+/// Calls shade_pixel(x, y, state) for every pixel of a width x height image in `share`'s tiles,
+/// with state = make_state() made once per tile, and end_tile(state) on the worker after each.
+/// Returns the number of pixels shaded.
 template <class MakeState, class ShadePixel, class EndTile>
-void render_tiles(int width, int height, bool quiet, MakeState&& make_state,
-                  ShadePixel&& shade_pixel, EndTile&& end_tile) {
+uint64_t render_tiles(int width, int height, TileShare share, bool quiet, MakeState&& make_state,
+                      ShadePixel&& shade_pixel, EndTile&& end_tile) {
     constexpr int kTile = 16;
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-    Progress progress("render", static_cast<uint64_t>(tiles_x) * tiles_y, quiet);
-    tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const auto& range) {
-        for (int tile = range.begin(); tile != range.end(); ++tile) {
+    const int mine = (tiles_x * tiles_y - share.index + share.count - 1) / share.count;
+    Progress progress("render", static_cast<uint64_t>(std::max(mine, 0)), quiet);
+    std::atomic<uint64_t> pixels{0};
+    tbb::parallel_for(tbb::blocked_range<int>(0, std::max(mine, 0), 1), [&](const auto& range) {
+        for (int t = range.begin(); t != range.end(); ++t) {
+            const int tile = share.index + t * share.count;
             auto state = make_state();
             const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-            for (int y = y0; y < std::min(y0 + kTile, height); ++y)
-                for (int x = x0; x < std::min(x0 + kTile, width); ++x) shade_pixel(x, y, state);
+            const int x1 = std::min(x0 + kTile, width), y1 = std::min(y0 + kTile, height);
+            for (int y = y0; y < y1; ++y)
+                for (int x = x0; x < x1; ++x) shade_pixel(x, y, state);
             end_tile(state);
+            pixels += static_cast<uint64_t>(x1 - x0) * static_cast<uint64_t>(y1 - y0);
             progress.add();
         }
     });
     progress.finish();
+    return pixels.load();
 }
 
 }  // namespace fogmap

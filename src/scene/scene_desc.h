@@ -115,6 +115,9 @@ struct RenderSettings {
     int max_depth = 1000000;
     uint64_t seed = 1;  ///< results are a function of the seed alone
     int threads = 0;    ///< 0 = all cores
+    /// Not scene keys: this process renders the image's 16x16 tiles t ≡ tile_index (mod
+    /// tile_count) alone, the others left 0 (the MPI ranks of a plain render share its tiles).
+    int tile_index = 0, tile_count = 1;
 };
 
 /// Photon budgets (DESIGN.md, Photons): photons *stored* per map; shooting goes on until every

@@ -1,17 +1,23 @@
 // mpirun with 1, 2 and 3 ranks (oversubscribed, unbound, allowed as root): a progressive render
-// splits its iterations over the ranks and gives the same EXR, bit for bit, as fogmap without
-// mpirun; the photon counts add up to the same totals; bad input exits 2 on every rank count with
-// the error said once; ranks with a time budget stop together; a run resumed from its checkpoint
-// (at any rank count, also after a SIGKILL) ends with the image of an uninterrupted run.
+// splits its iterations over the ranks, a plain one its photons and tiles, and both give the
+// same EXR, bit for bit, as fogmap without mpirun; the photon counts add up to the same totals;
+// a crashed rank ends the job without output; `bench --ranks` runs each setting per rank count; bad
+// input exits 2 on every rank count with the error said once; ranks with a time budget stop
+// together; a run resumed from its checkpoint (at any rank count, also after a SIGKILL) ends with
+// the image of an uninterrupted run.
 
+#include "core/timer.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace fogmap {
 namespace {
@@ -35,6 +41,18 @@ protected:
     test::TempDir tmp_{"fogmap_mpi"};
     const fs::path dir_ = tmp_.path();
 };
+
+/// The rows of a CSV file without quoted fields, split at commas.
+std::vector<std::vector<std::string>> read_csv(const std::string& path) {
+    std::vector<std::vector<std::string>> rows;
+    std::istringstream in(test::slurp(path));
+    for (std::string line; std::getline(in, line);) {
+        rows.emplace_back();
+        std::istringstream fields(line);
+        for (std::string f; std::getline(fields, f, ',');) rows.back().push_back(f);
+    }
+    return rows;
+}
 
 /// The line of a text report that starts with `key`, up to its rate in parentheses.
 std::string report_line(const std::string& out, const std::string& key) {
@@ -65,6 +83,98 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
             EXPECT_NE(r.out.find(std::to_string(ranks) + " MPI ranks"), std::string::npos) << r.out;
         }
     }
+}
+
+TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
+    // Every rank traces every n-th chunk of each photon round and renders every n-th tile; the
+    // EXR is that of one process, for the photon maps, the guided and the path tracer.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    for (const char* integrator : {"photon", "guided", "path"}) {
+        const std::string args = "render -q " + scene +
+                                 " --set camera.width=40 --set camera.height=24 --set "
+                                 "render.spp=2 --set photons.volume=8000 --set "
+                                 "photons.global=3000 --set render.integrator=" +
+                                 integrator + " -o ";
+        const test::RunResult plain = run(args + at("plain.exr"), 0);
+        ASSERT_EQ(plain.code, 0) << plain.err;
+        const std::string expected = test::slurp(at("plain.exr"));
+        for (int ranks : {1, 2, 3}) {
+            SCOPED_TRACE(std::string(integrator) + ", " + std::to_string(ranks) + " ranks");
+            const std::string exr = at("p" + std::to_string(ranks) + ".exr");
+            const test::RunResult r = run(args + exr, ranks);
+            ASSERT_EQ(r.code, 0) << r.err;
+            EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from one process's";
+            EXPECT_EQ(report_line(r.out, "photons emitted"),
+                      report_line(plain.out, "photons emitted"));
+            EXPECT_EQ(report_line(r.out, "samples"), report_line(plain.out, "samples"));
+            EXPECT_EQ(report_line(r.out, "rays"), report_line(plain.out, "rays"));
+        }
+    }
+}
+
+TEST_F(Mpi, ACrashedRankEndsTheJobAndLeavesNoOutput) {
+    // Rank 1 of a 60 s run gets SIGSEGV once it is under way: the job must end (well before the
+    // budget) with a failure, and rank 0 must leave neither the image nor a temp file behind.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    const std::string exr = at("crash.exr");
+    const std::string cmd =
+        "cd " + dir_.string() +
+        " && (timeout 100 mpirun --allow-run-as-root --oversubscribe --bind-to none -np 2 " +
+        FOGMAP_BINARY + " render -q " + scene +
+        " --set camera.width=64 --set camera.height=36 --progressive --time-budget 60 -o " + exr +
+        " >out.txt 2>err.txt & m=$!; "
+        // rank 1: the process whose command line names this output and whose environment
+        // says OMPI_COMM_WORLD_RANK=1 (procps may be missing: /proc is read directly)
+        "for i in $(seq 300); do for e in /proc/[0-9]*/environ; do "
+        "if tr '\\0' '\\n' <$e 2>/dev/null | grep -qx OMPI_COMM_WORLD_RANK=1 && "
+        "tr '\\0' ' ' <${e%environ}cmdline 2>/dev/null | grep -q " +
+        exr +
+        "; then "
+        "d=${e%/environ}; sleep 2; kill -SEGV ${d#/proc/}; break 2; fi; done 2>/dev/null; sleep "
+        "0.1; done; "
+        "wait $m; echo $? >rc.txt)";
+    const Timer timer;
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    const double seconds = timer.seconds();
+    const int rc = std::stoi(test::slurp(at("rc.txt")));
+    EXPECT_NE(rc, 0) << test::slurp(at("err.txt"));
+    EXPECT_NE(rc, 124) << "the job did not end after the crash";
+    EXPECT_LT(seconds, 50.0) << "the job ran on after the crash";
+    for (const auto& entry : fs::directory_iterator(dir_))
+        EXPECT_EQ(entry.path().filename().string().rfind("crash", 0), std::string::npos)
+            << "left behind: " << entry.path();
+}
+
+TEST_F(Mpi, BenchComparesRankCountsOnTheSameImages) {
+    // `mpirun -np 2 fogmap bench --ranks 1,2`: every setting at 1 rank (rank 1 sleeping) and at
+    // 2; the images are the same, so are their errors; the threads per rank share the cores.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    const std::string bench = "bench -q " + scene +
+                              " --set camera.width=24 --set camera.height=16 --set render.spp=1 "
+                              "--sweep photons.volume=3000 --set photons.global=1000 "
+                              "--path-spp 2 --reference-spp 4 --csv " +
+                              at("b/b.csv") + " --plot " + at("b/b.svg");
+    const test::RunResult r = run(bench + " --ranks 1,2", 2);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("Across rank counts"), std::string::npos) << r.out;
+    const std::vector<std::vector<std::string>> rows = read_csv(at("b/b.csv"));
+    ASSERT_EQ(rows.size(), 5u);  // header, photon at 1 and 2 ranks, path at 1 and 2 ranks
+    const std::vector<std::string>& h = rows[0];
+    auto col = [&](const char* name) { return std::find(h.begin(), h.end(), name) - h.begin(); };
+    for (size_t i : {1, 3}) {
+        EXPECT_EQ(rows[i][col("ranks")], "1");
+        EXPECT_EQ(rows[i + 1][col("ranks")], "2");
+        EXPECT_GE(std::stoi(rows[i][col("threads")]), std::stoi(rows[i + 1][col("threads")]));
+        EXPECT_EQ(rows[i][col("rel_mse")], rows[i + 1][col("rel_mse")]) << "row " << i;
+        EXPECT_GT(std::stod(rows[i + 1][col("reduce_s")]), 0.0);
+    }
+    const test::RunResult too_many = run(bench + " --ranks 3", 2);
+    EXPECT_EQ(too_many.code, 2);
+    EXPECT_NE(too_many.err.find("--ranks: '3' in '3': this job has 2 ranks"), std::string::npos)
+        << too_many.err;
+    const test::RunResult alone = run(bench + " --ranks 2", 0);
+    EXPECT_EQ(alone.code, 2);
+    EXPECT_NE(alone.err.find("mpirun -np 2"), std::string::npos) << alone.err;
 }
 
 TEST_F(Mpi, BadInputExitsTwoOnEveryRankCountAndIsSaidOnce) {

@@ -95,11 +95,12 @@ TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     const std::vector<std::string> keys = {"photons.volume", "volume.k"};
     const std::string header = bench_csv_header(keys);
     const std::vector<std::string> expected = {
-        "method",          "photons.volume", "volume.k",       "spp",
-        "repeats",         "load_s",         "photon_pass_s",  "build_global_s",
-        "build_caustic_s", "build_volume_s", "precompute_s",   "render_s",
-        "total_s",         "stored_global",  "stored_caustic", "stored_volume",
-        "bytes",           "rmse",           "rel_mse",        "bias"};
+        "method",        "photons.volume", "volume.k",          "spp",
+        "repeats",       "ranks",          "threads",           "load_s",
+        "photon_pass_s", "build_global_s", "build_caustic_s",   "build_volume_s",
+        "precompute_s",  "render_s",       "photon_exchange_s", "reduce_s",
+        "total_s",       "stored_global",  "stored_caustic",    "stored_volume",
+        "bytes",         "rmse",           "rel_mse",           "bias"};
     ASSERT_EQ(header.back(), '\n');
     EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
 
@@ -112,7 +113,7 @@ TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     row.bytes = 20000;
     row.rel_mse = 0.25;
     const std::string line = bench_csv_row(row);
-    EXPECT_EQ(line.substr(0, 27), "photon,1000,\"[1,2]\",4,3,0,0");
+    EXPECT_EQ(line.substr(0, 31), "photon,1000,\"[1,2]\",4,3,1,0,0,0");
     EXPECT_NE(line.find(",10,0,1000,20000,0,0.25,0\n"), std::string::npos) << line;
 }
 
@@ -191,23 +192,28 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     ASSERT_EQ(lines.size(), 8u);
     EXPECT_EQ(lines.back(), "");
     const std::vector<std::string> header = split(lines[0], ',');
-    ASSERT_EQ(header.size(), 20u);
+    ASSERT_EQ(header.size(), 24u);
     EXPECT_EQ(header[1], "photons.volume");
     EXPECT_EQ(header[2], "volume.k");
     const std::vector<std::vector<std::string>> expected = {
         {"photon", "100", "5"},  {"photon", "100", "10"}, {"photon", "300", "5"},
         {"photon", "300", "10"}, {"path", "", ""},        {"path", "", ""}};
+    auto col = [&](const char* name) {
+        return size_t(std::find(header.begin(), header.end(), name) - header.begin());
+    };
     for (size_t i = 0; i < expected.size(); ++i) {
         const std::vector<std::string> f = split(lines[i + 1], ',');
         ASSERT_EQ(f.size(), header.size()) << lines[i + 1];
         EXPECT_EQ(std::vector<std::string>(f.begin(), f.begin() + 3), expected[i]);
         EXPECT_EQ(f[4], "2");  // repeats
         for (size_t c = 5; c < f.size(); ++c) EXPECT_FALSE(f[c].empty()) << header[c];
-        const double rel_mse = std::stod(f[18]);
+        EXPECT_EQ(f[col("ranks")], "1");
+        const double rel_mse = std::stod(f[col("rel_mse")]);
         EXPECT_TRUE(rel_mse > 0.0 && std::isfinite(rel_mse)) << lines[i + 1];
         if (f[0] == "photon") {
-            EXPECT_GE(std::stoi(f[15]), std::stoi(f[1]));  // the volume map filled its budget
-            EXPECT_GT(std::stod(f[6]), 0.0);               // photon pass timed
+            // the volume map filled its budget; the photon pass was timed
+            EXPECT_GE(std::stoi(f[col("stored_volume")]), std::stoi(f[1]));
+            EXPECT_GT(std::stod(f[col("photon_pass_s")]), 0.0);
         }
     }
     EXPECT_EQ(split(lines[5], ',')[3], "1");  // path spp

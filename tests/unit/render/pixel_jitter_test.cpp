@@ -10,7 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace fogmap {
@@ -96,6 +98,26 @@ TEST(PixelJitter, EdgesCostLessErrorThanIndependentPositions) {
     }
     // Independent positions: Var = q(1 − q)/16; N-rooks removes most of it for edges.
     EXPECT_LT(mse_rooks, 0.5 * mse_random);
+}
+
+// The tile shares of the ranks of a plain render: for any share count, every pixel of an image
+// whose sides are not multiples of the tile is shaded exactly once over the shares, and each
+// share reports the pixels it shaded.
+TEST(TileShare, SharesCoverEveryPixelExactlyOnce) {
+    const int w = 53, h = 37;
+    for (int count : {1, 2, 3, 7, 13}) {
+        SCOPED_TRACE(std::to_string(count) + " shares");
+        std::vector<std::atomic<int>> hits(w * h);
+        uint64_t total = 0;
+        for (int index = 0; index < count; ++index) {
+            struct State {};
+            total += render_tiles(
+                w, h, TileShare{index, count}, /*quiet=*/true, [] { return State{}; },
+                [&](int x, int y, State&) { ++hits[size_t(y) * w + x]; }, [](const State&) {});
+        }
+        EXPECT_EQ(total, uint64_t(w) * h);
+        for (int i = 0; i < w * h; ++i) ASSERT_EQ(hits[i].load(), 1) << "pixel " << i;
+    }
 }
 
 }  // namespace
