@@ -319,10 +319,12 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     FloatTree& tree = grid->tree();
     const float background = tree.background();
     if (background != 0.0f) {
-        std::fprintf(stderr,
-                     "fogmap: warning: %s: grid '%s' has background %g; replaced by 0 "
-                     "(density outside active voxels is 0)\n",
-                     path.c_str(), grid_name.c_str(), background);
+        char text[400];
+        std::snprintf(text, sizeof text,
+                      "%s: grid '%s' has background %g; replaced by 0 (density outside active "
+                      "voxels is 0)",
+                      path.c_str(), grid_name.c_str(), background);
+        out->warnings_.push_back(text);
         openvdb::tools::changeBackground(tree, 0.0f);
     }
 
@@ -341,13 +343,15 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     };
     visit_nodes(tree, leaf_fn, tile_fn);
     if (stats.total() > 0) {
-        std::fprintf(stderr,
-                     "fogmap: warning: %s: grid '%s': set to 0: %llu NaN, %llu infinite, "
-                     "%llu negative, %llu denormal voxel values\n",
-                     path.c_str(), grid_name.c_str(), static_cast<unsigned long long>(stats.nan),
-                     static_cast<unsigned long long>(stats.inf),
-                     static_cast<unsigned long long>(stats.negative),
-                     static_cast<unsigned long long>(stats.denormal));
+        char text[400];
+        std::snprintf(text, sizeof text,
+                      "%s: grid '%s': set to 0: %llu NaN, %llu infinite, %llu negative, %llu "
+                      "denormal voxel values",
+                      path.c_str(), grid_name.c_str(), static_cast<unsigned long long>(stats.nan),
+                      static_cast<unsigned long long>(stats.inf),
+                      static_cast<unsigned long long>(stats.negative),
+                      static_cast<unsigned long long>(stats.denormal));
+        out->warnings_.push_back(text);
     }
     out->max_density_ = max_density;
     out->active_voxels_ = tree.activeVoxelCount();
@@ -361,11 +365,13 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
         out->index_bounds_.hi =
             Vec3(active.max().x() + 1, active.max().y() + 1, active.max().z() + 1);
     } else {
-        std::fprintf(stderr,
-                     "fogmap: warning: %s: grid '%s' has no active voxel above 0 (%llu active "
-                     "voxels); it renders as no medium\n",
-                     path.c_str(), grid_name.c_str(),
-                     static_cast<unsigned long long>(out->active_voxels_));
+        char text[400];
+        std::snprintf(text, sizeof text,
+                      "%s: grid '%s' has no active voxel above 0 (%llu active voxels); it renders "
+                      "as no medium",
+                      path.c_str(), grid_name.c_str(),
+                      static_cast<unsigned long long>(out->active_voxels_));
+        out->warnings_.push_back(text);
     }
     out->majorants_ = build_majorants(tree, out->index_bounds_);
     out->index_to_world_ = index_to_world;

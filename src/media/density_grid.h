@@ -110,6 +110,9 @@ public:
     const SanitizeStats& sanitize_stats() const { return sanitize_; }
     uint64_t active_voxels() const { return active_voxels_; }
     const std::string& name() const { return name_; }
+    /// What load changed or found wrong (background, non-finite values, no density), one line
+    /// each for the caller to print: under MPI only rank 0 speaks.
+    const std::vector<std::string>& warnings() const { return warnings_; }
 
     /// Bytes of the sampling layout (cells and bricks): what the grid keeps after load.
     size_t sampler_bytes() const {
@@ -149,6 +152,7 @@ private:
     SanitizeStats sanitize_;
     uint64_t active_voxels_ = 0;
     std::string name_;
+    std::vector<std::string> warnings_;
 };
 
 inline float DensityGrid::Sampler::density(const Vec3& p_index) const {

@@ -99,6 +99,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     Plan plan = make_plan(desc);
     const std::unique_ptr<const Scene> scene = load_scene(desc);
     add_phase(&report, "load", timer.seconds());
+    for (const std::string& w : scene->warnings) warn(w);
     describe_volume_light(*scene, &plan.volume_light);
     report.plan_text = plan_text(plan);
     report.plan = plan_json(plan);

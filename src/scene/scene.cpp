@@ -117,9 +117,10 @@ std::string find_emission_grid(const std::vector<std::string>& names) {
 
 /// Makes scene medium `medium` (desc medium i, its VDB file at `path`; "" for a homogeneous one)
 /// emit as desc says: the grid named, else one of kEmissionGridNames found in the file, else a
-/// constant. Returns the Plan's line for it (without the power).
+/// constant. Returns the Plan's line for it (without the power); a grid it loads adds its
+/// warnings to *warnings.
 std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& path,
-                            GridCache* grids, Medium* medium) {
+                            GridCache* grids, Medium* medium, std::vector<std::string>* warnings) {
     const MediumDesc& m = desc.media[i];
     const EmissionDesc& e = *m.emission;
     const std::string field = "/media/" + std::to_string(i) + "/emission";
@@ -151,7 +152,10 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
              : grid == "temperature"             ? EmissionKind::Blackbody
                                                  : EmissionKind::Scalar;
     std::shared_ptr<const DensityGrid>& g = (*grids)[{path, grid}];
-    if (!g) g = DensityGrid::load(path, grid, field + "/grid");
+    if (!g) {
+        g = DensityGrid::load(path, grid, field + "/grid");
+        warnings->insert(warnings->end(), g->warnings().begin(), g->warnings().end());
+    }
     Emission emission = Emission::from_grid(p, g);
     if (emission.max_kelvin() > kMaxKelvin) {
         char text[300];
@@ -264,10 +268,15 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         if (m.type != MediumType::Vdb) continue;
         const std::string path = resolve(desc, m.file);
         auto& grid = grids[{path, m.grid}];
-        if (!grid) grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
+        if (!grid) {
+            grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
+            scene->warnings.insert(scene->warnings.end(), grid->warnings().begin(),
+                                   grid->warnings().end());
+        }
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
         if (m.emission) {
-            emitters[i] = attach_emission(desc, i, path, &grids, &scene->media.back());
+            emitters[i] =
+                attach_emission(desc, i, path, &grids, &scene->media.back(), &scene->warnings);
         } else {
             const std::string hint =
                 find_emission_grid(vdb_grid_names(path, "/media/" + std::to_string(i)));
@@ -298,7 +307,9 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         }
         scene->media.push_back(Medium::homogeneous(medium_params(m), bounds));
         check_resolvable(scene->media.back(), desc, i);
-        if (m.emission) emitters[i] = attach_emission(desc, i, "", &grids, &scene->media.back());
+        if (m.emission)
+            emitters[i] =
+                attach_emission(desc, i, "", &grids, &scene->media.back(), &scene->warnings);
     }
     // The Plan's lines, in scene order, with each medium's power (scene->media holds the VDB
     // media first).

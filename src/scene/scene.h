@@ -31,6 +31,9 @@ struct Scene {
     /// VDB media without "emission" whose file has a grid named temperature, heat, flame or
     /// flames: "medium 0's file has grid 'temperature'". For the Plan.
     std::vector<std::string> emission_hints;
+    /// What loading the data found (DensityGrid::warnings, each grid once): the pipeline prints
+    /// them with its own warnings.
+    std::vector<std::string> warnings;
 };
 
 /// A data file named in the scene (mesh, VDB) as load_scene opens it: relative paths are relative

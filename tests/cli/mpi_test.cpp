@@ -7,6 +7,7 @@
 // the image of an uninterrupted run.
 
 #include "core/timer.h"
+#include "media/volume_gen.h"
 #include "test_support.h"
 
 #include <gtest/gtest.h>
@@ -190,6 +191,30 @@ TEST_F(Mpi, BadInputExitsTwoOnEveryRankCountAndIsSaidOnce) {
         EXPECT_EQ(said, 1u) << r.err;
         EXPECT_NE(r.err.find("/render/spp: spp must be >= 1"), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(at("x.exr")));
+    }
+}
+
+TEST_F(Mpi, WarningsAreSaidOnce) {
+    // A grid with negative densities: loading sets them to 0 and warns, on every rank, but the
+    // warning is printed by rank 0 alone.
+    const std::string vdb = at("neg.vdb");
+    write_float_grid(
+        vdb, "density", 8, 8, 8, [](int x, int, int) { return x == 0 ? -1.0f : 1.0f; }, Vec3(0.1f));
+    const std::string scene = tmp_.write("neg.json", R"({
+  "camera": {"position": [0.4, 0.4, 3], "look_at": [0.4, 0.4, 0], "width": 8, "height": 6},
+  "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": 1}],
+  "media": [{"type": "vdb", "file": "neg.vdb", "sigma_s": 5, "sigma_a": 1}],
+  "render": {"integrator": "path", "spp": 1}
+})");
+    for (int ranks : {0, 2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks");
+        const test::RunResult r = run("render -q " + scene + " -o " + at("neg.exr"), ranks);
+        ASSERT_EQ(r.code, 0) << r.err;
+        size_t said = 0;
+        for (size_t at = r.err.find("64 negative"); at != std::string::npos;
+             at = r.err.find("64 negative", at + 1))
+            ++said;
+        EXPECT_EQ(said, 1u) << r.err;
     }
 }
 
