@@ -736,9 +736,9 @@ TEST(ExtremeGrid, BadVoxelsAreSanitisedAndCounted) {
     const fs::path p = dir.path() / "bad.vdb";
     openvdb::io::File(p.string()).write({grid});
 
-    testing::internal::CaptureStderr();
     const auto loaded = DensityGrid::load(p.string(), "density", "/media/0");
-    const std::string warning = testing::internal::GetCapturedStderr();
+    ASSERT_EQ(loaded->warnings().size(), 1u);
+    const std::string warning = loaded->warnings()[0];
     const SanitizeStats& s = loaded->sanitize_stats();
     EXPECT_EQ(s.nan, 2u + 512u);
     EXPECT_EQ(s.inf, 2u);
@@ -764,6 +764,7 @@ TEST(ExtremeGrid, CleanGridLoadsWithoutWarning) {
     testing::internal::CaptureStderr();
     const auto loaded = DensityGrid::load(p.string(), "density", "/media/0");
     EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+    EXPECT_TRUE(loaded->warnings().empty());
     EXPECT_EQ(loaded->sanitize_stats().total(), 0u);
 }
 
