@@ -272,8 +272,7 @@ std::string ranks_summary(const std::vector<BenchRow>& rows,
     }
     if (out.str().empty()) return "";
     return "Across rank counts (speed: the fewest ranks' time over this time; communication: "
-           "photon "
-           "exchange and reduction, share of the run):\n" +
+           "photon exchange and reduction, share of the run):\n" +
            out.str();
 }
 
