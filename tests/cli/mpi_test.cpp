@@ -266,18 +266,31 @@ TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
 }
 
 TEST_F(Mpi, SequenceFramesAreDealtToRankGroups) {
-    // 3 frames over 2 ranks: the groups {0} and {1} take frames 1, 3 and 2; the images are those
-    // of the run without MPI.
+    // 3 frames over 1, 2 and 3 ranks: the groups ({0, 1, 2}; {0}, {1}; {0}, {1}, {2}) take the
+    // frames round-robin, a group of several ranks shares each of its frames; the images are
+    // those of the run without MPI. A missing frame file is named once, exit 2, on any count.
     test::write_plume_sequence(dir_, 3);
     const std::string render = "render -q " + at("s.json") + " --frames 1-3 -o ";
     ASSERT_EQ(run(render + at("plain/f.####.exr"), 0).code, 0);
-    const test::RunResult r = run(render + at("mpi/f.####.exr"), 2);
-    ASSERT_EQ(r.code, 0) << r.err;
-    for (const char* f : {"f.0001.exr", "f.0002.exr", "f.0003.exr"}) {
-        ASSERT_TRUE(fs::exists(at(std::string("mpi/") + f))) << f;
-        EXPECT_TRUE(test::slurp(at(std::string("mpi/") + f)) ==
-                    test::slurp(at(std::string("plain/") + f)))
-            << f;
+    for (int ranks : {1, 2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks");
+        const std::string out = "mpi" + std::to_string(ranks) + "/";
+        const test::RunResult r = run(render + at(out + "f.####.exr"), ranks);
+        ASSERT_EQ(r.code, 0) << r.err;
+        for (const char* f : {"f.0001.exr", "f.0002.exr", "f.0003.exr"}) {
+            ASSERT_TRUE(fs::exists(at(out + f))) << f;
+            EXPECT_TRUE(test::slurp(at(out + f)) == test::slurp(at(std::string("plain/") + f)))
+                << f;
+        }
+    }
+    fs::remove(at("vol/p.0002.vdb"));
+    for (int ranks : {2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks, frame 2 missing");
+        const test::RunResult r = run(render + at("gone/f.####.exr"), ranks);
+        EXPECT_EQ(r.code, 2);
+        EXPECT_NE(r.err.find("frame 2 of --frames 1-3"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("fogmap: error:"), r.err.rfind("fogmap: error:")) << r.err;
+        EXPECT_FALSE(fs::exists(at("gone")));
     }
 }
 
