@@ -42,6 +42,13 @@ struct FilmSample {
     }
 };
 
+/// Which camera sample of its pixel a ray is: sample s of spp, and the pixel's own key (a stream
+/// apart from the samples'), for integrators that treat some samples of a pixel apart.
+struct PixelSample {
+    int s = 0, spp = 1;
+    uint64_t key = 0;
+};
+
 struct RenderStats {
     double render_s = 0.0;   ///< wall time of the render pass
     uint64_t samples = 0;    ///< camera samples traced
@@ -153,8 +160,8 @@ private:
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
-/// uniforms, then trace(ray, rng, state) -> FilmSample; non-finite samples are dropped (counted)
-/// and the film holds the mean over spp. state = make_state() per tile; state.rays and
+/// uniforms, then trace(ray, rng, state, PixelSample) -> FilmSample; non-finite samples are dropped
+/// (counted) and the film holds the mean over spp. state = make_state() per tile; state.rays and
 /// state.capped are summed into *stats (may be null).
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
@@ -172,7 +179,8 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         for (int s = 0; s < spp; ++s) {
             Rng rng(seed, pixel, static_cast<uint64_t>(s));
             const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
-            const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state);
+            const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state,
+                                       PixelSample{s, spp, jitter_key});
             if (!is_finite(layered ? c.layer_sum() : c.beauty)) {
                 ++dropped;
                 continue;

@@ -243,7 +243,7 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
         Camera(scene.camera), settings.spp, settings.seed,
         TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,
         [&] { return tracer.make_state(); },
-        [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts) {
+        [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample&) {
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts);
             return sample;

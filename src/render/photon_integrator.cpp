@@ -132,7 +132,9 @@ Color PhotonIntegrator::final_gather(const Vec3& p, const Vec3& n, Rng& rng,
     return sum / static_cast<float>(rays);
 }
 
-FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) const {
+FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
+                                      float map_weight) const {
+    const bool maps = map_weight > 0.0f;
     FilmSample out;
     Ray ray = camera_ray;
     Color beta(1.0f);
@@ -149,7 +151,9 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             const Color tau = volume_.march(ray, t_max, beta, rng.uniform(), ts);
             out[Layer::Emission] += ts.emitted;
             out[Layer::VolumeSingle] += volume_.single_scattering(ray, beta, rng, ts);
-            out[Layer::VolumeMultiple] += volume_.multiple_scattering(ray, beta, rng, ts);
+            if (maps)
+                out[Layer::VolumeMultiple] +=
+                    map_weight * volume_.multiple_scattering(ray, beta, rng, ts);
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }
@@ -175,17 +179,19 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
         const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;
         out[Layer::Direct] +=
             beta * direct_diffuse(scene_, ts.media, hit->p, n, mat.albedo, rng, &ts.rays);
+        if (!maps) break;
         if (maps_.caustic)
             out[Layer::Caustic] +=
-                beta * mat.albedo * kInvPi *
+                map_weight * beta * mat.albedo * kInvPi *
                 surface_irradiance(*maps_.caustic, hit->p, n, estimator_k(gather_.caustic),
                                    gather_.caustic.radius, gather_.cone_filter, 0, ts.neighbors);
         if (maps_.global) {
             if (gather_.final_gather)
-                out[Layer::Indirect] += beta * mat.albedo * final_gather(hit->p, n, rng, ts);
+                out[Layer::Indirect] +=
+                    map_weight * beta * mat.albedo * final_gather(hit->p, n, rng, ts);
             else
                 out[Layer::Indirect] +=
-                    beta * mat.albedo * kInvPi *
+                    map_weight * beta * mat.albedo * kInvPi *
                     surface_irradiance(*maps_.global, hit->p, n, estimator_k(gather_.global),
                                        gather_.global.radius, 0.0f, Photon::kCaustic, ts.neighbors);
         }
@@ -193,6 +199,13 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
     }
     if (depth == max_depth_) ++ts.capped;  // a specular chain ran into the cap
     return out;
+}
+
+float map_weight(const PixelSample& ps, int map_spp) {
+    const int step = map_spp > 0 ? std::max(1, ps.spp / map_spp) : 1;
+    if (step == 1) return 1.0f;
+    const int offset = static_cast<int>(mix64(ps.key ^ 0x6d61705f73707000ull) % uint64_t(step));
+    return (ps.s + offset) % step == 0 ? static_cast<float>(step) : 0.0f;
 }
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
@@ -204,8 +217,8 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
         Camera(scene.camera), settings.spp, settings.seed,
         TileShare{settings.tile_index, settings.tile_count}, /*layered=*/true, quiet, stats,
         [&] { return integrator.make_state(); },
-        [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts) {
-            return integrator.radiance(ray, rng, ts);
+        [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
+            return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));
         });
 }
 

@@ -32,8 +32,9 @@ public:
     };
     ThreadState make_state() const;
 
-    /// One camera sample along ray (unit direction), split into the film's layers.
-    FilmSample radiance(const Ray& ray, Rng& rng, ThreadState& ts) const;
+    /// One camera sample along ray (unit direction), split into the film's layers. Its photon-map
+    /// lookups (volume, caustic, global) weigh map_weight; 0 leaves them out (render.map_spp).
+    FilmSample radiance(const Ray& ray, Rng& rng, ThreadState& ts, float map_weight = 1.0f) const;
 
     /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
     double precompute_s() const { return precompute_s_; }
@@ -57,6 +58,13 @@ private:
     VolumeGather volume_;  ///< after beam_, which it points to
     bool emissive_ = false;  ///< some medium emits: gather rays collect its emission
 };
+
+/// The weight of sample ps's photon-map lookups when map_spp of a pixel's samples make them
+/// (render.map_spp; 0 = all, weight 1): sample s is chosen when (s + offset) % step == 0, with
+/// step = spp / map_spp and the pixel's offset uniform in [0, step) (from ps.key), so every sample
+/// is chosen with probability 1/step and weighs step (Horvitz–Thompson: unbiased), and the
+/// chosen samples' N-rooks columns are stratified over the pixel. 0 for the others.
+float map_weight(const PixelSample& ps, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
 /// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).

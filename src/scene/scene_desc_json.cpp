@@ -153,6 +153,7 @@ template <class R, class V>
 void render_fields(R& r, V& v) {
     v.choice("integrator", r.integrator, kIntegrators, "integrator");
     v.value("spp", r.spp);
+    v.value("map_spp", r.map_spp);
     v.value("max_depth", r.max_depth);
     v.value("seed", r.seed);
     v.value("threads", r.threads);

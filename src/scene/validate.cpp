@@ -465,6 +465,9 @@ void check_render(const SceneDesc& desc) {
     const RenderSettings& r = desc.render;
     const Checker k(desc, "/render");
     if (r.spp < 1) k.fail("spp", "spp must be >= 1; found " + std::to_string(r.spp));
+    if (r.map_spp < 0)
+        k.fail("map_spp",
+               "map_spp must be >= 0 (0 = every sample); found " + std::to_string(r.map_spp));
     k.int_range("max_depth", r.max_depth, 1, kMaxDepthLimit);
     if (r.threads < 0) {
         k.fail("threads",

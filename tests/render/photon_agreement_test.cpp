@@ -192,6 +192,41 @@ TEST(GuidedAgreement, GuidedPathTracerMatchesThePathTracer) {
     }
 }
 
+// render.map_spp: a pixel's photon-map lookups made by 1 or 4 of its 16 samples, weighted 16 or
+// 4, estimate the same pixel means as lookups by all 16 (the maps are the same: same seed). Per
+// map layer, the per-pixel differences must be zero-mean within 4 standard errors (a missing
+// weight is off by 4-16x) and not all zero (fewer lookups did happen).
+TEST(PhotonMapSamples, FewerLookupsPerPixelEstimateTheSameMeans) {
+    for (const char* scene : {"smoke.json", "caustics.json"}) {
+        const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/" + scene;
+        std::vector<std::string> o{"camera.width=48",      "camera.height=27",
+                                   "render.spp=16",        "photons.volume=20000",
+                                   "photons.global=10000", "photons.caustic=10000",
+                                   "render.map_spp=0"};
+        const Film all = run_pipeline(load_scene_desc(path, o), true).film;
+        for (const char* fewer : {"render.map_spp=1", "render.map_spp=4"}) {
+            o.back() = fewer;
+            const Film some = run_pipeline(load_scene_desc(path, o), true).film;
+            for (Layer l : {Layer::VolumeMultiple, Layer::Indirect, Layer::Caustic}) {
+                const Image &a = all.layer(l), &b = some.layer(l);
+                const double n = static_cast<double>(a.pixels.size());
+                double sum = 0.0, sum2 = 0.0;
+                for (size_t i = 0; i < a.pixels.size(); ++i) {
+                    const double d = average(b.pixels[i]) - average(a.pixels[i]);
+                    sum += d;
+                    sum2 += d * d;
+                }
+                const double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / (n - 1.0));
+                if (a.mean() == 0.0) continue;  // smoke has no caustic layer
+                SCOPED_TRACE(std::string(scene) + ", " + fewer + ", layer " +
+                             kLayerNames[static_cast<int>(l)]);
+                EXPECT_GT(se, 0.0);
+                EXPECT_NEAR(mean, 0.0, 4.0 * se) << "all " << a.mean() << ", fewer " << b.mean();
+            }
+        }
+    }
+}
+
 TEST(PhotonAgreementHeavy, SmokeConvergesToThePathTracer) {
     check_agreement({"smoke.json", 240, 135, 4096, 32, 25000});
 }

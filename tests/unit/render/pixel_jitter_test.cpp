@@ -4,15 +4,18 @@
 // the coverage of a pixel by a half-plane through it, estimated from 16 samples, has less than half
 // the squared error of independent positions (true coverage from a 2000 x 2000 midpoint grid).
 
+#include "render/photon_integrator.h"
 #include "render/tiles.h"
 
 #include "core/rng.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fogmap {
@@ -117,6 +120,42 @@ TEST(TileShare, SharesCoverEveryPixelExactlyOnce) {
         }
         EXPECT_EQ(total, uint64_t(w) * h);
         for (int i = 0; i < w * h; ++i) ASSERT_EQ(hits[i].load(), 1) << "pixel " << i;
+    }
+}
+
+// render.map_spp (Horvitz–Thompson): over many pixels, every sample index s is chosen for the
+// photon-map lookups with probability 1 / step (binomial, within 5 standard deviations) and
+// weighs step, so E[weight] = 1 for each s; each pixel chooses about spp / step samples, at most
+// one per block of step consecutive N-rooks columns.
+TEST(MapWeight, EverySampleIsChosenWithProbabilityOneOverStep) {
+    constexpr int kPixels = 20000;
+    for (const auto& [spp, map_spp] : {std::pair{16, 1}, {16, 4}, {16, 5}, {12, 8}, {7, 2}}) {
+        SCOPED_TRACE(std::to_string(spp) + " spp, map_spp " + std::to_string(map_spp));
+        const int step = std::max(1, spp / map_spp);
+        std::vector<int> chosen(spp, 0);
+        for (int p = 0; p < kPixels; ++p) {
+            const uint64_t key = pixel_key(9, static_cast<uint64_t>(p));
+            int in_pixel = 0, last = -step;
+            for (int s = 0; s < spp; ++s) {
+                const float w = map_weight(PixelSample{s, spp, key}, map_spp);
+                if (w == 0.0f) continue;
+                ASSERT_EQ(w, static_cast<float>(step));
+                ASSERT_GE(s - last, step) << "two chosen samples within one block";
+                last = s;
+                ++chosen[s];
+                ++in_pixel;
+            }
+            ASSERT_GE(in_pixel, spp / step);
+            ASSERT_LE(in_pixel, (spp + step - 1) / step);
+        }
+        const double q = 1.0 / step, sd = std::sqrt(kPixels * q * (1.0 - q));
+        for (int s = 0; s < spp; ++s) EXPECT_NEAR(chosen[s], kPixels * q, 5.0 * sd + 1e-9) << s;
+    }
+    // map_spp 0 or >= spp: every sample, weight 1.
+    for (int s = 0; s < 8; ++s) {
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 0), 1.0f);
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 8), 1.0f);
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 20), 1.0f);
     }
 }
 

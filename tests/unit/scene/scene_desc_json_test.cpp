@@ -69,7 +69,7 @@ json full_scene() {
         {"type": "homogeneous", "bounds": {"min": [-1, 0, -1], "max": [1, 2, 1]},
          "density_scale": 0.5, "sigma_s": 0.1, "sigma_a": [0.01, 0.02, 0.03], "g": -0.3}
       ],
-      "render": {"integrator": "path", "spp": 64, "max_depth": 12,
+      "render": {"integrator": "path", "spp": 64, "map_spp": 2, "max_depth": 12,
                  "seed": 18446744073709551615, "threads": 3},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
                   "max_bounces": 7},
@@ -122,6 +122,7 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.media[1].bounds->hi, Vec3(1, 2, 1));
     EXPECT_FALSE(d.media[0].bounds.has_value());
     EXPECT_EQ(d.render.spp, 64);
+    EXPECT_EQ(d.render.map_spp, 2);
     EXPECT_EQ(d.render.seed, 18446744073709551615ull);
     EXPECT_EQ(d.render.threads, 3);
     EXPECT_EQ(d.render.integrator, Integrator::Path);
@@ -221,7 +222,8 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     EXPECT_EQ(e.file, "scene.json");
     EXPECT_EQ(e.field, "/render/spp_count");
     EXPECT_EQ(e.reason,
-              "unknown key 'spp_count'; known keys: integrator, max_depth, seed, spp, threads");
+              "unknown key 'spp_count'; known keys: integrator, map_spp, max_depth, seed, spp, "
+              "threads");
 
     const InputError top = parse_error(json::parse(R"({"medias": []})"));
     EXPECT_EQ(top.field, "/medias");
@@ -504,8 +506,8 @@ TEST(SceneDescOverride, BadOverridesFailThroughTheNormalChecks) {
 
     const InputError k = catch_input_error([&] { load_scene_desc(path, {"render.spp_count=3"}); });
     EXPECT_EQ(k.field, "/render/spp_count");
-    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: integrator, max_depth, seed, "
-                             "spp, threads",
+    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: integrator, map_spp, "
+                             "max_depth, seed, spp, threads",
                              0),
               0u)
         << k.reason;
@@ -551,6 +553,8 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "max_depth must be in [1, 100000000]; found 100000001"},
         {R"({"render": {"threads": -2}})", "/render/threads",
          "threads must be >= 0 (0 = all cores); found -2"},
+        {R"({"render": {"map_spp": -1}})", "/render/map_spp",
+         "map_spp must be >= 0 (0 = every sample); found -1"},
         {R"({"photons": {"global": 1000000001}})", "/photons/global",
          "global must be in [0, 1000000000]; found 1000000001"},
         {R"({"photons": {"caustic": 18446744073709551615}})", "/photons/caustic",
