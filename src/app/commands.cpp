@@ -1,4 +1,5 @@
 #include "app/commands.h"
+#include "app/mpi_ranks.h"
 
 #include "core/error.h"
 #include "core/frames.h"
@@ -22,12 +23,14 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <thread>
 #include <utility>
 
 namespace fogmap {
@@ -256,18 +259,20 @@ int run_render(const RenderArgs& args) {
         return 0;
     }
 
-    // Every frame's files exist before any frame is rendered.
+    // Every frame's files exist before any frame is rendered (on every rank's machine).
     const std::vector<int> frames = range->frames();
-    for (const int f : frames)
-        for (size_t i = 0; i < desc.media.size(); ++i) {
-            const MediumDesc& m = desc.media[i];
-            if (m.type != MediumType::Vdb) continue;
-            const std::string file = resolve(desc, expand_frame(m.file, f));
-            if (!fs::exists(file))
-                throw InputError(file, "/media/" + std::to_string(i) + "/file",
-                                 "frame " + std::to_string(f) + " of --frames " + args.frames +
-                                     ": no such file");
-        }
+    agree_on_input(args.ranks, [&] {
+        for (const int f : frames)
+            for (size_t i = 0; i < desc.media.size(); ++i) {
+                const MediumDesc& m = desc.media[i];
+                if (m.type != MediumType::Vdb) continue;
+                const std::string file = resolve(desc, expand_frame(m.file, f));
+                if (!fs::exists(file))
+                    throw InputError(file, "/media/" + std::to_string(i) + "/file",
+                                     "frame " + std::to_string(f) + " of --frames " + args.frames +
+                                         ": no such file");
+            }
+    });
     // Under mpirun the ranks form groups, dealt the frames round-robin; a group's ranks split
     // its frames' iterations, and its rank 0 writes them.
     const int world = args.ranks ? args.ranks->size() : 1;
@@ -293,7 +298,19 @@ int run_render(const RenderArgs& args) {
         try {
             report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr);
         } catch (const InputError& e) {  // say which frame
-            throw InputError(e.file, e.field, e.reason + " (frame " + std::to_string(f) + ")");
+            const InputError framed(e.file, e.field,
+                                    e.reason + " (frame " + std::to_string(f) + ")");
+            // The other groups render on: the group's first rank says it and ends the job
+            // (MPI_Abort); the group's other ranks leave that to it.
+            if (groups > 1) {
+                if (speaks) {
+                    std::fprintf(stderr, "fogmap: error: %s\n", framed.what());
+                    abort_mpi(2);
+                }
+                std::this_thread::sleep_for(std::chrono::seconds(60));
+                abort_mpi(2);
+            }
+            throw framed;
         }
         if (!speaks) continue;
         if (args.json) {

@@ -3,8 +3,11 @@
 // (app/mpi_ranks.cpp), or none. The pipeline asks only for these collective operations, so MPI's
 // headers stay in app/. Every rank must call each operation in the same order.
 
+#include "core/error.h"
+
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace fogmap {
@@ -31,5 +34,34 @@ public:
     /// groups a sequence's frames are dealt to. Collective.
     virtual std::unique_ptr<Ranks> split(int group) = 0;
 };
+
+/// Runs f() on every rank where reading input may fail on some ranks only (a data file missing
+/// on one machine): when f throws InputError on any rank, every rank throws the error of the
+/// lowest such rank (naming it when it is not rank 0), so all exit with 2 and rank 0 says it
+/// once, rather than the others waiting for the failed rank forever. Collective; without ranks,
+/// just f().
+template <class F>
+void agree_on_input(Ranks* ranks, F&& f) {
+    if (!ranks || ranks->size() == 1) {
+        f();
+        return;
+    }
+    std::string mine;
+    try {
+        f();
+    } catch (const InputError& e) {
+        mine = e.file + '\0' + e.field + '\0' + e.reason;
+    }
+    const std::vector<std::vector<uint8_t>> all =
+        ranks->all_gather(std::vector<uint8_t>(mine.begin(), mine.end()));
+    for (size_t r = 0; r < all.size(); ++r) {
+        if (all[r].empty()) continue;
+        const std::string text(all[r].begin(), all[r].end());
+        const size_t a = text.find('\0'), b = text.find('\0', a + 1);
+        throw InputError(
+            text.substr(0, a), text.substr(a + 1, b - a - 1),
+            text.substr(b + 1) + (r == 0 ? "" : " (on MPI rank " + std::to_string(r) + ")"));
+    }
+}
 
 }  // namespace fogmap

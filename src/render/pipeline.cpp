@@ -97,7 +97,8 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     };
     const Timer timer;
     Plan plan = make_plan(desc);
-    const std::unique_ptr<const Scene> scene = load_scene(desc);
+    std::unique_ptr<const Scene> scene;
+    agree_on_input(ranks, [&] { scene = load_scene(desc); });
     add_phase(&report, "load", timer.seconds());
     for (const std::string& w : scene->warnings) warn(w);
     describe_volume_light(*scene, &plan.volume_light);

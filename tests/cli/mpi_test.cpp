@@ -218,6 +218,46 @@ TEST_F(Mpi, WarningsAreSaidOnce) {
     }
 }
 
+TEST_F(Mpi, InputOneRankCannotReadEndsEveryRank) {
+    // Rank 1 starts in a folder without the scene's VDB file (a file missing on one machine):
+    // every rank exits with 2 and the error, naming the rank, is said once; no hang, no output.
+    test::write_plume_sequence(dir_, 1);
+    fs::create_directories(at("other/vol"));
+    fs::copy_file(at("s.json"), at("other/s.json"));
+    const std::string pattern = "vol/p.####.vdb";
+    std::string json = test::slurp(at("s.json"));
+    json.replace(json.find(pattern), pattern.size(), "vol/p.0001.vdb");
+    test::spit(at("s.json"), json);
+    test::spit(at("other/s.json"), json);
+    const std::string cmd =
+        "timeout 100 mpirun --allow-run-as-root --oversubscribe --bind-to none -np 2 sh -c "
+        "'if [ \"$OMPI_COMM_WORLD_RANK\" = 1 ]; then cd " +
+        at("other") + "; else cd " + dir_.string() + "; fi; exec " + FOGMAP_BINARY +
+        " render -q s.json -o " + at("d.exr") + "' >" + at("out.txt") + " 2>" + at("err.txt");
+    const int status = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 2);
+    const std::string err = test::slurp(at("err.txt"));
+    EXPECT_EQ(err.find("fogmap: error:"), err.rfind("fogmap: error:")) << err;
+    EXPECT_NE(err.find("vol/p.0001.vdb"), std::string::npos) << err;
+    EXPECT_NE(err.find("(on MPI rank 1)"), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(at("d.exr")));
+}
+
+TEST_F(Mpi, ABadFrameOfAnotherGroupEndsTheJob) {
+    // 3 frames on 2 ranks: frame 2 (group {1}) is a truncated VDB. Its group says so once and
+    // ends the job with 2 (MPI_Abort), while group {0} was rendering frames 1 and 3.
+    test::write_plume_sequence(dir_, 3);
+    const std::string whole = test::slurp(at("vol/p.0002.vdb"));
+    test::spit(at("vol/p.0002.vdb"), whole.substr(0, 300));
+    const test::RunResult r =
+        run("render -q " + at("s.json") + " --frames 1-3 -o " + at("out/f.####.exr"), 2);
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_EQ(r.err.find("fogmap: error:"), r.err.rfind("fogmap: error:")) << r.err;
+    EXPECT_NE(r.err.find("truncated VDB file"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(frame 2)"), std::string::npos) << r.err;
+}
+
 TEST_F(Mpi, RanksWithATimeBudgetStopTogether) {
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const test::RunResult r =
