@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace fogmap {
@@ -31,6 +32,19 @@ struct AgreementCase {
     uint64_t volume_photons;       ///< smallest count; then x4 and x16
     double mean_tolerance = 0.02;  ///< relative, image mean against the reference's
 };
+
+/// The mean over pixels of b − a (channel averages) and its standard error.
+std::pair<double, double> mean_difference(const Image& b, const Image& a) {
+    const double n = static_cast<double>(a.pixels.size());
+    double sum = 0.0, sum2 = 0.0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) {
+        const double d = average(b.pixels[i]) - average(a.pixels[i]);
+        sum += d;
+        sum2 += d * d;
+    }
+    const double mean = sum / n;
+    return {mean, std::sqrt((sum2 / n - mean * mean) / (n - 1.0))};
+}
 
 void check_agreement(const AgreementCase& c) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/" + c.scene;
@@ -178,14 +192,7 @@ TEST(GuidedAgreement, GuidedPathTracerMatchesThePathTracer) {
         o[4] = "render.integrator=\"guided\"";
         o[5] = "render.seed=4";
         const Image guided = run_pipeline(load_scene_desc(path, o), true).film.beauty;
-        const double n = static_cast<double>(plain.pixels.size());
-        double sum = 0.0, sum2 = 0.0;
-        for (size_t i = 0; i < plain.pixels.size(); ++i) {
-            const double d = average(guided.pixels[i]) - average(plain.pixels[i]);
-            sum += d;
-            sum2 += d * d;
-        }
-        const double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / (n - 1.0));
+        const auto [mean, se] = mean_difference(guided, plain);
         EXPECT_NEAR(mean, 0.0, 4.0 * se)
             << scene << ": guided " << guided.mean() << ", path " << plain.mean();
         EXPECT_GT(plain.mean(), 0.0);
@@ -209,15 +216,8 @@ TEST(PhotonMapSamples, FewerLookupsPerPixelEstimateTheSameMeans) {
             const Film some = run_pipeline(load_scene_desc(path, o), true).film;
             for (Layer l : {Layer::VolumeMultiple, Layer::Indirect, Layer::Caustic}) {
                 const Image &a = all.layer(l), &b = some.layer(l);
-                const double n = static_cast<double>(a.pixels.size());
-                double sum = 0.0, sum2 = 0.0;
-                for (size_t i = 0; i < a.pixels.size(); ++i) {
-                    const double d = average(b.pixels[i]) - average(a.pixels[i]);
-                    sum += d;
-                    sum2 += d * d;
-                }
-                const double mean = sum / n, se = std::sqrt((sum2 / n - mean * mean) / (n - 1.0));
                 if (a.mean() == 0.0) continue;  // smoke has no caustic layer
+                const auto [mean, se] = mean_difference(b, a);
                 SCOPED_TRACE(std::string(scene) + ", " + fewer + ", layer " +
                              kLayerNames[static_cast<int>(l)]);
                 EXPECT_GT(se, 0.0);
