@@ -2,8 +2,9 @@
 // splits its iterations over the ranks, a plain one its photons and tiles, and both give the
 // same EXR, bit for bit, as fogmap without mpirun; the photon counts add up to the same totals;
 // a crashed rank ends the job without output; `bench --ranks` runs each setting per rank count; bad
-// input exits 2 on every rank count with the error said once; ranks with a time budget stop
-// together; a run resumed from its checkpoint (at any rank count, also after a SIGKILL) ends with
+// input exits 2 on every rank count with the error said once, also when only one rank cannot read
+// a file or another frame group meets a bad frame; warnings are said once; ranks with a time
+// budget stop together; a run resumed from its checkpoint (at any rank count, also after a SIGKILL) ends with
 // the image of an uninterrupted run.
 
 #include "core/timer.h"
