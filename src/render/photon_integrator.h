@@ -61,9 +61,10 @@ private:
 
 /// The weight of sample ps's photon-map lookups when map_spp of a pixel's samples make them
 /// (render.map_spp; 0 = all, weight 1): sample s is chosen when (s + offset) % step == 0, with
-/// step = spp / map_spp and the pixel's offset uniform in [0, step) (from ps.key), so every sample
-/// is chosen with probability 1/step and weighs step (Horvitz–Thompson: unbiased), and the
-/// chosen samples' N-rooks columns are stratified over the pixel. 0 for the others.
+/// step = spp / map_spp (integer division) and the pixel's offset uniform in [0, step) (from
+/// ps.key), so every sample is chosen with probability 1/step and weighs step (Horvitz–Thompson:
+/// unbiased), and the chosen samples' N-rooks columns are stratified over the pixel. 0 for the
+/// others.
 float map_weight(const PixelSample& ps, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples

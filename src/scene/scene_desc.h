@@ -109,9 +109,10 @@ struct RenderSettings {
     /// Not a scene key: why the integrator was chosen when the scene asked for auto.
     std::string auto_reason;
     int spp = 16;  ///< samples per pixel, >= 1
-    /// Photon integrator: how many of a pixel's spp samples look up the photon maps (0 = all).
-    /// A lookup costs many times the rest of a sample, so the others only trace the camera side
-    /// (direct light, single scattering); the chosen samples weigh spp / map_spp (unbiased).
+    /// Photon integrator: about how many of a pixel's spp samples look up the photon maps (0 =
+    /// all). A lookup costs many times the rest of a sample, so the others only trace the camera
+    /// side (direct light, single scattering); the chosen ones weigh spp / map_spp rounded down
+    /// (unbiased: map_weight in render/photon_integrator.h).
     int map_spp = 4;
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
