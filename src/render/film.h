@@ -1,10 +1,11 @@
 #pragma once
 // The image side of every integrator: the output layers (one enumeration and its name table,
-// in EXR order), one camera sample's radiance split into them, the film that accumulates pixel
-// means, the render statistics, and the per-pixel sample loop every integrator runs (pixel key,
-// N-rooks position, the sample's Rng(seed, pixel, s), non-finite samples dropped, the mean).
-// A layered film's beauty is the sum of its layers; an unlayered one holds beauty alone.
-// Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
+// in EXR order), one camera sample's radiance split into them, the film of pixel means and its
+// fixed-point sum over iterations, the render statistics, and the per-pixel sample loop every
+// integrator runs (pixel key, N-rooks position, the sample's Rng(seed, pixel, s), non-finite
+// samples dropped, the mean). A layered film's beauty is the sum of its layers; an unlayered one
+// holds beauty alone. Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s)
+// whatever the thread.
 
 #include "core/error.h"
 #include "core/image.h"
@@ -76,23 +77,6 @@ struct Film {
         std::vector<NamedImage> out;
         for (size_t l = 0; l < layers.size(); ++l) out.push_back({kLayerNames[l], &layers[l]});
         return out;
-    }
-    /// Adds `other` (same size and layers) pixel by pixel; an empty film takes its shape.
-    void add(const Film& other) {
-        if (beauty.pixels.empty()) {
-            *this = other;
-            return;
-        }
-        auto add_image = [](Image& to, const Image& from) {
-            for (size_t i = 0; i < from.pixels.size(); ++i) to.pixels[i] += from.pixels[i];
-        };
-        add_image(beauty, other.beauty);
-        for (size_t l = 0; l < layers.size(); ++l) add_image(layers[l], other.layers[l]);
-    }
-    void scale(float s) {
-        for (Color& c : beauty.pixels) c *= s;
-        for (Image& img : layers)
-            for (Color& c : img.pixels) c *= s;
     }
 };
 

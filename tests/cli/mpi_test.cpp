@@ -44,6 +44,13 @@ protected:
     const fs::path dir_ = tmp_.path();
 };
 
+/// How many times `what` occurs in `text`.
+size_t occurrences(const std::string& text, const std::string& what) {
+    size_t n = 0;
+    for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+}
+
 /// The rows of a CSV file without quoted fields, split at commas.
 std::vector<std::vector<std::string>> read_csv(const std::string& path) {
     std::vector<std::vector<std::string>> rows;
@@ -185,11 +192,7 @@ TEST_F(Mpi, BadInputExitsTwoOnEveryRankCountAndIsSaidOnce) {
         SCOPED_TRACE(std::to_string(ranks) + " ranks");
         const test::RunResult r = run("render -q " + bad + " -o " + at("x.exr"), ranks);
         EXPECT_EQ(r.code, 2) << r.err;
-        size_t said = 0;
-        for (size_t at = r.err.find("fogmap: error:"); at != std::string::npos;
-             at = r.err.find("fogmap: error:", at + 1))
-            ++said;
-        EXPECT_EQ(said, 1u) << r.err;
+        EXPECT_EQ(occurrences(r.err, "fogmap: error:"), 1u) << r.err;
         EXPECT_NE(r.err.find("/render/spp: spp must be >= 1"), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(at("x.exr")));
     }
@@ -211,11 +214,7 @@ TEST_F(Mpi, WarningsAreSaidOnce) {
         SCOPED_TRACE(std::to_string(ranks) + " ranks");
         const test::RunResult r = run("render -q " + scene + " -o " + at("neg.exr"), ranks);
         ASSERT_EQ(r.code, 0) << r.err;
-        size_t said = 0;
-        for (size_t at = r.err.find("64 negative"); at != std::string::npos;
-             at = r.err.find("64 negative", at + 1))
-            ++said;
-        EXPECT_EQ(said, 1u) << r.err;
+        EXPECT_EQ(occurrences(r.err, "64 negative"), 1u) << r.err;
     }
 }
 
