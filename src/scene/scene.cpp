@@ -106,6 +106,19 @@ void check_march_steps(const SceneDesc& desc, const std::vector<Medium>& media) 
 
 using GridCache = std::map<std::pair<std::string, std::string>, std::shared_ptr<const DensityGrid>>;
 
+/// Grid `name` of the VDB file at `path`, loaded on first use (its load warnings then added to
+/// *warnings, so each grid's are said once) and shared after.
+std::shared_ptr<const DensityGrid> cached_grid(GridCache* grids, const std::string& path,
+                                               const std::string& name, const std::string& field,
+                                               std::vector<std::string>* warnings) {
+    std::shared_ptr<const DensityGrid>& g = (*grids)[{path, name}];
+    if (!g) {
+        g = DensityGrid::load(path, name, field);
+        warnings->insert(warnings->end(), g->warnings().begin(), g->warnings().end());
+    }
+    return g;
+}
+
 constexpr std::array<const char*, 4> kEmissionGridNames{"temperature", "heat", "flame", "flames"};
 
 /// The first of kEmissionGridNames that `names` holds, or "".
@@ -151,11 +164,8 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
              : e.kind == EmissionSource::Scalar  ? EmissionKind::Scalar
              : grid == "temperature"             ? EmissionKind::Blackbody
                                                  : EmissionKind::Scalar;
-    std::shared_ptr<const DensityGrid>& g = (*grids)[{path, grid}];
-    if (!g) {
-        g = DensityGrid::load(path, grid, field + "/grid");
-        warnings->insert(warnings->end(), g->warnings().begin(), g->warnings().end());
-    }
+    const std::shared_ptr<const DensityGrid> g =
+        cached_grid(grids, path, grid, field + "/grid", warnings);
     Emission emission = Emission::from_grid(p, g);
     if (emission.max_kelvin() > kMaxKelvin) {
         char text[300];
@@ -267,12 +277,8 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         const MediumDesc& m = desc.media[i];
         if (m.type != MediumType::Vdb) continue;
         const std::string path = resolve(desc, m.file);
-        auto& grid = grids[{path, m.grid}];
-        if (!grid) {
-            grid = DensityGrid::load(path, m.grid, "/media/" + std::to_string(i));
-            scene->warnings.insert(scene->warnings.end(), grid->warnings().begin(),
-                                   grid->warnings().end());
-        }
+        const std::shared_ptr<const DensityGrid> grid =
+            cached_grid(&grids, path, m.grid, "/media/" + std::to_string(i), &scene->warnings);
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
         if (m.emission) {
             emitters[i] =
