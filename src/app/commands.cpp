@@ -85,11 +85,14 @@ void check_run_memory(const SceneDesc& desc, bool with_reference) {
     const double films = pixels * sizeof(Color) * layers * 2;
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) + pixels * 6;
     // 20 bytes per photon with its kd-tree (README, Kd-trees); the beam estimate keeps 40 more
-    // per volume photon.
+    // per volume photon, photon beams about 200 (two beams per photon at most, as stored and as
+    // pieces in their hierarchy).
     const PhotonSettings& p = desc.photons;
-    const bool beam = desc.volume.estimator == VolumeEstimator::Beam;
+    const double per_volume_photon = desc.volume.estimator == VolumeEstimator::Beam          ? 40.0
+                                     : desc.volume.estimator == VolumeEstimator::PhotonBeams ? 200.0
+                                                                                             : 0.0;
     const double maps = photon ? 20.0 * (double(p.global) + p.caustic + p.volume) +
-                                     (beam ? 40.0 * double(p.volume) : 0.0)
+                                     per_volume_photon * double(p.volume)
                                : 0.0;
     const double total = films + others + maps;
     const uint64_t budget = memory_budget_bytes();

@@ -49,4 +49,22 @@ struct Photon {
 
 static_assert(sizeof(Photon) == 20, "photon record must stay 20 bytes");
 
+/// A photon beam (Jarosz, Nowrouzezahrai, Sadeghi, Jensen 2011), short: the part inside the
+/// media's bounds of one photon path segment, from where it starts to its next collision (or to
+/// the surface or the bounds it reaches without one), carrying the power the photon carried along
+/// it. Free paths are sampled ∝ transmittance, so the photon's flux through a point of the
+/// segment at distance t is this power times T(t) / P(no collision before t) = this power (grey
+/// media). 28 bytes; power relative to its map's photon power, as Photon's.
+struct PhotonBeam {
+    float a[3], b[3];  ///< start and end
+    uint32_t power_rgbe;
+
+    PhotonBeam() = default;
+    PhotonBeam(const Vec3& start, const Vec3& end, const Color& power)
+        : a{start.x, start.y, start.z}, b{end.x, end.y, end.z}, power_rgbe(encode_rgbe(power)) {}
+    Vec3 start() const { return Vec3(a[0], a[1], a[2]); }
+    Vec3 end() const { return Vec3(b[0], b[1], b[2]); }
+    Color power() const { return decode_rgbe(power_rgbe); }
+};
+
 }  // namespace fogmap

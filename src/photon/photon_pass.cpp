@@ -45,7 +45,8 @@ PhotonTracer::PhotonTracer(const Scene& scene, const MarchSettings& march, int m
 
 TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                std::vector<Medium::Sampler>& samplers, uint32_t index,
-                               std::vector<TaggedPhoton>* out, PhotonSource source) const {
+                               std::vector<TaggedPhoton>* out, PhotonSource source,
+                               std::vector<TaggedBeam>* beams) const {
     const Scene& scene = scene_;
     // A bounce-stream photon has had its interaction (the surface it leaves) and stores volume
     // photons only; a sun or sky path whose next segment after a first, diffuse, interaction
@@ -57,6 +58,13 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
     auto deposit = [&](int map, const Photon& photon) {
         out->push_back({index, static_cast<PhotonMapId>(map), photon});
     };
+    // The part of a segment (ray on [0, end)) within the media's bounds, as a beam.
+    auto leave_beam = [&](float end) {
+        float enter, leave;
+        if (intersect_box(media_bounds_, ray, 0.0f, end, &enter, &leave) && leave > enter)
+            beams->push_back({index, PhotonBeam(ray.at(enter), ray.at(leave), power)});
+    };
+    const bool with_beams = beams_ && beams;
     bool met_media = false;
     auto ended = [&](PathEnd end, int depth) {
         return TracedPath{end, ray, power, depth, met_media};
@@ -80,9 +88,11 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                               intersect_box(media_bounds_, ray, 0.0f, t_max, &enter, &leave));
             bool scattered = false;
             Vec3 x;
+            const bool volume_store = depth >= stored_from && store[kVolume] && !owned;
             if (method_ == FreePathMethod::March) {
                 const RayMarcher::FreePath fp =
                     marcher_.sample_free_path(samplers, ray, t_max, rng);
+                if (with_beams && volume_store) leave_beam(fp.collided ? fp.t : t_max);
                 power *= fp.weight;
                 if (fp.collided) {
                     x = fp.x;
@@ -92,19 +102,19 @@ TracedPath PhotonTracer::trace(Ray ray, Color power, Rng& rng,
                                      (double(fp.sigma_t.x) + fp.sigma_t.y + fp.sigma_t.z);
                     if (rng.uniform() >= p) return ended(PathEnd::Absorbed, depth + 1);
                     power *= fp.sigma_s / (fp.sigma_t * static_cast<float>(p));
-                    if (depth >= stored_from && store[kVolume] && !owned)
-                        deposit(kVolume, Photon(x, ray.d, power));
+                    if (volume_store) deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             } else {
                 Color beta(1.0f);
                 const TrackResult tr = delta_track(samplers, ray, t_max, rng, &beta);
+                if (with_beams && volume_store)
+                    leave_beam(tr.event == TrackEvent::Escaped ? t_max : tr.t);
                 power *= beta;
                 if (tr.event == TrackEvent::Absorbed) return ended(PathEnd::Absorbed, depth + 1);
                 if (tr.event == TrackEvent::Scattered) {
                     x = ray.at(tr.t);
-                    if (depth >= stored_from && store[kVolume] && !owned)
-                        deposit(kVolume, Photon(x, ray.d, power));
+                    if (volume_store) deposit(kVolume, Photon(x, ray.d, power));
                     scattered = true;
                 }
             }
@@ -157,6 +167,7 @@ namespace {
 /// What one chunk of one stream's attempts produced.
 struct ChunkOut {
     std::vector<TaggedPhoton> photons;
+    std::vector<TaggedBeam> beams;
     uint64_t accepted = 0;      ///< attempts that yielded a photon
     uint64_t met_media = 0;     ///< photon paths that entered the media's bounds
     uint64_t interactions = 0;  ///< the work traced (a deterministic cost measure)
@@ -175,11 +186,12 @@ void put(std::vector<uint8_t>* bytes, const T* values, size_t n) {
 }
 
 void put_chunk(std::vector<uint8_t>* bytes, const ChunkOut& o) {
-    const uint64_t n = o.photons.size();
-    const uint64_t counts[] = {o.accepted, o.met_media, o.interactions, o.longest, o.capped, n};
-    put(bytes, counts, 6);
+    const uint64_t n = o.photons.size(), nb = o.beams.size();
+    const uint64_t counts[] = {o.accepted, o.met_media, o.interactions, o.longest, o.capped, n, nb};
+    put(bytes, counts, 7);
     put(bytes, &o.capped_power, 1);
     put(bytes, o.photons.data(), n);
+    put(bytes, o.beams.data(), nb);
 }
 
 /// Reads back what put_chunk wrote, advancing *at.
@@ -188,8 +200,8 @@ ChunkOut get_chunk(const uint8_t** at) {
         std::memcpy(values, *at, n * sizeof(*values));
         *at += n * sizeof(*values);
     };
-    uint64_t counts[6];
-    get(counts, 6);
+    uint64_t counts[7];
+    get(counts, 7);
     ChunkOut o;
     o.accepted = counts[0];
     o.met_media = counts[1];
@@ -199,6 +211,8 @@ ChunkOut get_chunk(const uint8_t** at) {
     get(&o.capped_power, 1);
     o.photons.resize(counts[5]);
     get(o.photons.data(), o.photons.size());
+    o.beams.resize(counts[6]);
+    get(o.beams.data(), o.beams.size());
     return o;
 }
 
@@ -245,6 +259,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     const size_t n_ranks = ranks ? size_t(ranks->size()) : 1, my_rank = ranks ? ranks->rank() : 0;
     PhotonTracer tracer(scene, march, settings.max_bounces);
     tracer.set_bounce_owner(&set);
+    tracer.set_beams(settings.volume_beams && maps[kVolume]);
     std::array<bool, 3> open;  // maps still taking photons
     for (int m = 0; m < 3; ++m) open[m] = maps[m] && maps[m]->budget > 0;
     tracer.set_store(open);
@@ -255,6 +270,7 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     for (size_t s = 0; s < n_streams; ++s) streams[s].name = set.streams[s].name;
     std::vector<std::array<Pair, 3>> pairs(n_streams);
     std::array<std::vector<uint16_t>, 3> photon_stream;  // each stored photon's stream
+    std::vector<uint16_t> beam_stream;                   // each stored beam's stream
 
     // Closes map m at every stream's attempts so far (its photons weigh Φ_s over those).
     auto close_now = [&](int m) {
@@ -310,9 +326,9 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                     }
                     if (!sampled) continue;
                     ++o.accepted;
-                    const TracedPath path =
-                        tracer.trace(ray, power, rng, samplers,
-                                     static_cast<uint32_t>(i - job.begin), &o.photons, source);
+                    const TracedPath path = tracer.trace(ray, power, rng, samplers,
+                                                         static_cast<uint32_t>(i - job.begin),
+                                                         &o.photons, source, &o.beams);
                     o.met_media += path.met_media ? 1 : 0;
                     o.interactions += static_cast<uint64_t>(path.interactions);
                     o.longest = std::max<uint64_t>(o.longest, path.interactions);
@@ -362,6 +378,13 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                                                        : attempts[u];
                     }
                 }
+            }
+            // Beams go with the volume map's photons: those of the attempts it still takes.
+            for (const TaggedBeam& t : out[j].beams) {
+                const Pair& p = pairs[s][kVolume];
+                if (p.closed && job.begin + t.index >= p.stop_at) continue;
+                maps[kVolume]->beams.push_back(t.beam);
+                beam_stream.push_back(static_cast<uint16_t>(s));
             }
         }
         for (size_t s = 0; s < n_streams; ++s) attempts[s] += count[s];
@@ -508,6 +531,11 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             const double w = weight[photon_stream[m][i]] / map.photon_power;
             if (w != 1.0) p.power_rgbe = encode_rgbe(p.power() * static_cast<float>(w));
         }
+        for (size_t i = 0; i < map.beams.size(); ++i) {
+            PhotonBeam& b = map.beams[i];
+            const double w = weight[beam_stream[i]] / map.photon_power;
+            if (w != 1.0) b.power_rgbe = encode_rgbe(b.power() * static_cast<float>(w));
+        }
         if (map.photons.size() < map.budget && map.stopped.empty())
             result.warnings.push_back(
                 std::string(kNames[m]) + " map: " + std::to_string(map.photons.size()) + " of " +
@@ -544,6 +572,7 @@ PhotonMaps build_trees(PhotonPassResult&& pass) {
         m.emitted = in->emitted;
         m.photon_power = in->photon_power;
         m.stopped = std::move(in->stopped);
+        m.beams = std::move(in->beams);
         in->photons.shrink_to_fit();
         m.tree = KdTree<Photon>(std::move(in->photons));
         m.build_s = timer.seconds();

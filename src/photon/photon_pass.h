@@ -34,6 +34,8 @@ namespace fogmap {
 /// One map's photons before its tree is built.
 struct StoredPhotons {
     std::vector<Photon> photons;  ///< relative powers, scaled so that photon_power is the unit
+    /// Volume map with photons.volume_beams: the paths' beams, weighted as the photons.
+    std::vector<PhotonBeam> beams;
     uint64_t budget = 0;
     uint64_t emitted = 0;       ///< attempts, over all streams, behind the map's photons
     float photon_power = 0.0f;  ///< W of a photon whose relative power is 1
@@ -86,6 +88,12 @@ struct TaggedPhoton {
     Photon photon;
 };
 
+/// A volume-map beam a path deposits, with its emission index within the batch.
+struct TaggedBeam {
+    uint32_t index;
+    PhotonBeam beam;
+};
+
 /// Where a photon starts: a light whose paths the bounce stream may own (sun, sky), another
 /// light, the bounce stream (photon/streams.h), or an emitting medium. No light samples an
 /// emitting medium's light at the camera, so its photons are stored from their first
@@ -117,6 +125,8 @@ public:
 
     /// Which maps take photons (global, caustic, volume); none by default. Not during trace().
     void set_store(const std::array<bool, 3>& store) { store_ = store; }
+    /// Volume photons come with the beams of the segments before them (photons.volume_beams).
+    void set_beams(bool on) { beams_ = on; }
     /// The streams whose bounce stream (if any) owns some of the light paths' volume photons
     /// (photon/streams.h); none by default. Not during trace(); `set` must outlive the tracer.
     void set_bounce_owner(const StreamSet* set) { bounce_owner_ = set; }
@@ -124,10 +134,12 @@ public:
     /// Follows a photon leaving along `ray` (unit direction) with relative `power`, drawing only
     /// from `rng`. Photons the maps take are appended to *out, tagged with `index`; out may be
     /// null when no map takes photons. `samplers`: one per medium of the scene, this thread's.
-    /// A Bounce photon leaves a diffuse surface and stores volume photons only.
+    /// A Bounce photon leaves a diffuse surface and stores volume photons only. With set_beams,
+    /// every segment that could end in a stored volume photon leaves its beam in *beams.
     TracedPath trace(Ray ray, Color power, Rng& rng, std::vector<Medium::Sampler>& samplers,
                      uint32_t index, std::vector<TaggedPhoton>* out,
-                     PhotonSource source = PhotonSource::LocalLight) const;
+                     PhotonSource source = PhotonSource::LocalLight,
+                     std::vector<TaggedBeam>* beams = nullptr) const;
 
     const RayMarcher& marcher() const { return marcher_; }
 
@@ -138,6 +150,7 @@ private:
     FreePathMethod method_;
     int max_bounces_;
     std::array<bool, 3> store_{false, false, false};
+    bool beams_ = false;
     const StreamSet* bounce_owner_ = nullptr;
 };
 
@@ -147,7 +160,8 @@ struct PhotonMap {
     float photon_power = 0.0f;  ///< W per photon (total power / emitted)
     uint64_t emitted = 0;
     double build_s = 0.0;
-    std::string stopped;  ///< StoredPhotons::stopped
+    std::string stopped;            ///< StoredPhotons::stopped
+    std::vector<PhotonBeam> beams;  ///< StoredPhotons::beams
 };
 
 struct PhotonMaps {

@@ -66,7 +66,10 @@ float progressive_radius(float r1, int i, float alpha, int dimensions) {
 
 GatherParams gather_at_iteration(const GatherParams& first, int i, float alpha) {
     GatherParams p = first;
-    const std::pair<MapGather*, int> maps[] = {{&p.global, 2}, {&p.caustic, 2}, {&p.volume, 3}};
+    // Photon beams are blurred across their axis only: a 2D kernel.
+    const int volume_dimensions = p.estimator == VolumeEstimator::PhotonBeams ? 2 : 3;
+    const std::pair<MapGather*, int> maps[] = {
+        {&p.global, 2}, {&p.caustic, 2}, {&p.volume, volume_dimensions}};
     for (auto [map, dimensions] : maps)
         if (map->fixed_radius) map->radius = progressive_radius(map->radius, i, alpha, dimensions);
     return p;

@@ -29,6 +29,18 @@ std::unique_ptr<BeamTree> build_beam(const PhotonMaps& maps, const GatherParams&
     return beam;
 }
 
+// The photon-beam hierarchy when the photon-beam estimate is asked for and there is a volume
+// map; adds its build time to *seconds.
+std::unique_ptr<PhotonBeams> build_photon_beams(const PhotonMaps& maps, const GatherParams& gather,
+                                                double* seconds) {
+    if (gather.estimator != VolumeEstimator::PhotonBeams || !maps.volume) return nullptr;
+    const Timer timer;
+    auto beams = std::make_unique<PhotonBeams>(
+        *maps.volume, gather.volume.fixed_radius ? 0 : gather.volume.k, gather.volume.radius);
+    *seconds += timer.seconds();
+    return beams;
+}
+
 }  // namespace
 
 // Irradiance at every fourth global photon, with the photon's surface normal (Christensen 1999).
@@ -55,7 +67,9 @@ PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
       gather_(gather),
       max_depth_(max_depth),
       beam_(build_beam(maps, gather, &precompute_s_)),
-      volume_(scene, march, gather, maps.volume ? &*maps.volume : nullptr, beam_.get()) {
+      beams_(build_photon_beams(maps, gather, &precompute_s_)),
+      volume_(scene, march, gather, maps.volume ? &*maps.volume : nullptr, beam_.get(),
+              beams_.get()) {
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
     const Timer timer;
     if (!gather.final_gather || !maps.global || maps.global->tree.empty()) return;

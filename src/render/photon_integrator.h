@@ -39,6 +39,7 @@ public:
     /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
     double precompute_s() const { return precompute_s_; }
     const BeamTree* beam_tree() const { return beam_.get(); }
+    const PhotonBeams* photon_beams() const { return beams_.get(); }
 
 private:
     struct Irradiance;
@@ -55,7 +56,8 @@ private:
     double precompute_s_ = 0.0;  ///< before beam_, whose construction adds to it
     std::unique_ptr<Irradiance> irradiance_;
     std::unique_ptr<BeamTree> beam_;
-    VolumeGather volume_;  ///< after beam_, which it points to
+    std::unique_ptr<PhotonBeams> beams_;
+    VolumeGather volume_;    ///< after beam_ and beams_, which it points to
     bool emissive_ = false;  ///< some medium emits: gather rays collect its emission
 };
 

@@ -109,6 +109,12 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const ThreadLimit threads(desc.render.threads);
     const bool photon = desc.render.integrator == Integrator::Photon;
     const bool guided = desc.render.integrator == Integrator::Guided;
+    // Photon beams take each photon's presence along its free path as the transmittance, so their
+    // free paths are delta-tracked, exact, whatever march.method says (photon/photon_beams.h).
+    PhotonSettings photons = desc.photons;
+    photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
+    MarchSettings photon_march = desc.march;
+    if (photons.volume_beams) photon_march.method = FreePathMethod::Delta;
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
@@ -164,7 +170,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
     // does not run it traces its photons for that alone.
     if (progressive && (my_rank != 0 || base > 0)) {
-        PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
+        PhotonPassResult pass = trace_photons(*scene, plan, photons, photon_march,
                                               iteration_seed(desc.render.seed, 1, true), true);
         first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
     }
@@ -190,7 +196,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             RenderStats stats;
             Film film;
             if (photon || guided) {
-                PhotonPassResult pass = trace_photons(*scene, plan, desc.photons, desc.march,
+                PhotonPassResult pass = trace_photons(*scene, plan, photons, photon_march,
                                                       settings.seed, quiet_pass, pass_ranks);
                 if (i == 1) {
                     for (const std::string& w : pass.warnings) warn(w);

@@ -12,11 +12,13 @@
 namespace fogmap {
 
 VolumeGather::VolumeGather(const Scene& scene, const MarchSettings& march,
-                           const GatherParams& gather, const PhotonMap* map, const BeamTree* beam)
+                           const GatherParams& gather, const PhotonMap* map, const BeamTree* beam,
+                           const PhotonBeams* beams)
     : scene_(scene),
       marcher_(scene.media, march),
       map_(map),
       beam_(gather.estimator == VolumeEstimator::Beam ? beam : nullptr),
+      beams_(gather.estimator == VolumeEstimator::PhotonBeams ? beams : nullptr),
       k_(gather.volume.fixed_radius ? 0 : gather.volume.k),
       radius_(gather.volume.radius),
       lookups_per_ray_(gather.lookups_per_ray),
@@ -129,6 +131,7 @@ Color VolumeGather::single_scattering(const Ray& ray, const Color& beta, Rng& rn
 Color VolumeGather::multiple_scattering(const Ray& ray, const Color& beta, Rng& rng,
                                         State& st) const {
     if (st.steps.empty() || !map_) return Color(0.0f);
+    if (beams_) return beta * photon_beam_estimate(ray, st);
     return beam_ ? beta * beam_estimate(ray, st) : sphere_estimate(ray.d, rng, st);
 }
 
@@ -187,6 +190,29 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
             one_medium ? single.eval(glm::dot(p.direction, -ray.d))
                        : PhaseMix(st.media, p.position).eval(glm::dot(p.direction, -ray.d));
         sum += phase * kernel * exp_neg(tau) * p.power;
+    });
+    return sum * map_->photon_power;
+}
+
+// Σ_b Φ_b σ_s(t_b) f(θ_b) T(0, t_b) / (2 r_b sin θ_b) over the beam pieces whose lines pass
+// within their radii of the marched segment (photon/photon_beams.h), σ_s and T from the march's
+// own table (σ held constant per step; nothing scatters in the gaps between media).
+Color VolumeGather::photon_beam_estimate(const Ray& ray, State& st) const {
+    const std::vector<MarchedStep>& depth = st.steps;
+    const float t0 = depth.front().t0, t1 = depth.back().t1;
+    const bool one_medium = st.media.size() == 1;
+    const PhaseMix single(st.media, ray.o);  // with one medium the same everywhere
+    Color sum(0.0f);
+    beams_->for_each_hit(ray, t0, t1, [&](const PhotonBeams::Piece& p, float t, float kernel) {
+        ++st.queries;
+        const auto it = std::upper_bound(depth.begin(), depth.end(), t,
+                                         [](float v, const MarchedStep& s) { return v < s.t1; });
+        if (it == depth.end() || t < it->t0) return;
+        const Color tau = it->tau0 + it->sigma_t * (t - it->t0);
+        const float cos_theta = glm::dot(p.dir, -ray.d);
+        const float phase = one_medium ? single.eval(cos_theta)
+                                       : PhaseMix(st.media, ray.o + t * ray.d).eval(cos_theta);
+        sum += phase * kernel * it->sigma_s * exp_neg(tau) * p.power;
     });
     return sum * map_->photon_power;
 }

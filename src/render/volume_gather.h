@@ -14,6 +14,7 @@
 #include "media/ray_march.h"
 #include "photon/beam_tree.h"
 #include "photon/kd_tree.h"
+#include "photon/photon_beams.h"
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
 #include "scene/scene.h"
@@ -35,9 +36,10 @@ struct MarchedStep {
 class VolumeGather {
 public:
     /// Gathers from `map` (may be null: single scattering only) with `gather`'s volume settings;
-    /// `beam` (may be null) is the map's beam hierarchy, used when gather.estimator is beam.
+    /// `beam` (may be null) is the map's beam hierarchy, used when gather.estimator is beam, and
+    /// `beams` its photon beams', used when it is photon_beams.
     VolumeGather(const Scene& scene, const MarchSettings& march, const GatherParams& gather,
-                 const PhotonMap* map, const BeamTree* beam);
+                 const PhotonMap* map, const BeamTree* beam, const PhotonBeams* beams = nullptr);
 
     /// Per-thread state: medium samplers and scratch.
     struct State {
@@ -69,11 +71,13 @@ private:
                         State& st) const;
     Color sphere_estimate(const Vec3& dir, Rng& rng, State& st) const;
     Color beam_estimate(const Ray& ray, State& st) const;
+    Color photon_beam_estimate(const Ray& ray, State& st) const;
 
     const Scene& scene_;
     RayMarcher marcher_;
     const PhotonMap* map_;
     const BeamTree* beam_;
+    const PhotonBeams* beams_;
     int k_;  ///< estimator k: 0 = every photon within the radius
     float radius_;
     int lookups_per_ray_, light_samples_;

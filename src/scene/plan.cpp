@@ -92,8 +92,12 @@ PlanItem plan_marching(const SceneDesc& desc) {
         return on(count(desc.media.size(), "medium", "media") +
                   "; photon free paths march, camera paths use delta tracking");
     }
-    // march.method picks how photons find free paths; camera rays of this integrator always march.
+    // march.method picks how photons find free paths (photon beams need exact ones: delta
+    // tracking); camera rays of this integrator always march.
     const char* how = "";
+    if (desc.volume.estimator == VolumeEstimator::PhotonBeams)
+        return on(count(desc.media.size(), "medium", "media") +
+                  "; camera rays march, photon free paths use delta tracking (photon beams)");
     switch (desc.march.method) {
         case FreePathMethod::March:
             how = "camera rays and photon free paths march";

@@ -135,6 +135,9 @@ struct PhotonSettings {
     /// Interactions per photon path, >= 1. Photons end by Russian roulette on the albedo; this is
     /// a safety limit, and the power it cuts is reported (a warning above 0.1%).
     int max_bounces = 1000000;
+    /// Not a scene key: the volume map keeps its paths' beams too (set from volume.estimator
+    /// photon_beams).
+    bool volume_beams = false;
 };
 
 /// Surface global map: disc estimate, shown directly or through final gathering.
@@ -153,8 +156,9 @@ struct CausticGatherSettings {
 };
 
 /// sphere: point queries along the camera march; beam: one query per ray segment over photon
-/// spheres (Jarosz, Zwicker, Jensen 2008).
-enum class VolumeEstimator { Sphere, Beam };
+/// spheres (Jarosz, Zwicker, Jensen 2008); photon_beams: one query per ray segment over the photon
+/// paths' segments (beam × beam 1D, Jarosz, Nowrouzezahrai, Sadeghi, Jensen 2011).
+enum class VolumeEstimator { Sphere, Beam, PhotonBeams };
 
 /// Volume map: the beam estimate with per-photon radii (the k-th neighbour's distance, at most
 /// `radius`), or the spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates). The

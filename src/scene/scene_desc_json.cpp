@@ -32,8 +32,8 @@ constexpr std::array<EmissionSource, 4> kEmissionSources{
     EmissionSource::Constant};
 constexpr std::array<Integrator, 4> kIntegrators{Integrator::Auto, Integrator::Path,
                                                 Integrator::Photon, Integrator::Guided};
-constexpr std::array<VolumeEstimator, 2> kVolumeEstimators{VolumeEstimator::Sphere,
-                                                           VolumeEstimator::Beam};
+constexpr std::array<VolumeEstimator, 3> kVolumeEstimators{
+    VolumeEstimator::Sphere, VolumeEstimator::Beam, VolumeEstimator::PhotonBeams};
 constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
                                                          FreePathMethod::Delta};
 

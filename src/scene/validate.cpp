@@ -96,6 +96,8 @@ const char* to_string(VolumeEstimator t) {
             return "sphere";
         case VolumeEstimator::Beam:
             return "beam";
+        case VolumeEstimator::PhotonBeams:
+            return "photon_beams";
     }
     return "?";
 }
@@ -514,6 +516,18 @@ void check_gather(const SceneDesc& desc) {
         k.non_negative("radius", v.radius);
         k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
         k.int_range("light_samples", v.light_samples, 0, 4096);
+        // A short beam's flux is its photon's power only where the free path was sampled with
+        // every channel's own transmittance (photon/photon_beams.h).
+        for (size_t i = 0; i < desc.media.size() && v.estimator == VolumeEstimator::PhotonBeams;
+             ++i) {
+            const Color t = desc.media[i].sigma_s + desc.media[i].sigma_a;
+            if (t.x != t.y || t.y != t.z)
+                k.fail("estimator",
+                       "\"photon_beams\" needs the same extinction sigma_s + "
+                       "sigma_a in every channel; /media/" +
+                           std::to_string(i) + " has " + vec(t) +
+                           "; expected \"beam\" or a grey medium");
+        }
     }
 }
 

@@ -263,6 +263,11 @@ TEST(Plan, MarchingReasonNamesTheFreePathMethod) {
     EXPECT_EQ(line(p, kMarching),
               "ray marching: used (1 medium; camera rays march, photon free paths use delta "
               "tracking)");
+    doc["march"] = json{{"method", "march"}};  // photon beams need exact free paths
+    doc["volume"] = json{{"estimator", "photon_beams"}};
+    EXPECT_EQ(line(make_plan(scene(doc)), kMarching),
+              "ray marching: used (1 medium; camera rays march, photon free paths use delta "
+              "tracking (photon beams))");
 }
 
 TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {

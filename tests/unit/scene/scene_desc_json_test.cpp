@@ -321,7 +321,8 @@ TEST(SceneDescJson, UnknownEnumValueListsAllChoices) {
 
     const InputError estimator = parse_error(json::parse(R"({"volume": {"estimator": "cone"}})"));
     EXPECT_EQ(estimator.field, "/volume/estimator");
-    EXPECT_EQ(estimator.reason, "unknown volume estimator 'cone'; expected one of: sphere, beam");
+    EXPECT_EQ(estimator.reason,
+              "unknown volume estimator 'cone'; expected one of: sphere, beam, photon_beams");
 
     const InputError method = parse_error(json::parse(R"({"march": {"method": "ratio"}})"));
     EXPECT_EQ(method.field, "/march/method");

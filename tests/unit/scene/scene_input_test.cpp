@@ -121,6 +121,23 @@ TEST(SceneInput, SingularOrOutOfRangeTransformsNameTheField) {
     EXPECT_EQ(validate_error(doc).field, "/media/0/transform");
 }
 
+// Photon beams carry their photon's power along the free path, which is the transmittance of
+// every channel only when all channels have the same extinction.
+TEST(SceneInput, PhotonBeamsNeedGreyExtinction) {
+    json doc = scene();
+    doc["media"] = json::parse(R"([{"type": "homogeneous", "sigma_s": [1, 1, 1],
+                                    "sigma_a": [0.5, 0.5, 0.5],
+                                    "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]}}])");
+    doc["volume"] = json{{"estimator", "photon_beams"}};
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+    doc["media"][0]["sigma_a"] = json::parse("[0.5, 0.4, 0.5]");
+    const InputError e = validate_error(doc);
+    EXPECT_EQ(e.field, "/volume/estimator");
+    EXPECT_NE(e.reason.find("/media/0 has [1.5, 1.4, 1.5]"), std::string::npos) << e.reason;
+    doc["volume"]["estimator"] = "beam";  // the point estimates take any medium
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+}
+
 TEST(SceneInput, EmissionValuesAreChecked) {
     json doc = scene();
     doc["media"] = json::parse(R"([{"type": "homogeneous", "sigma_a": 1,
