@@ -10,6 +10,7 @@
 // in leaf order (40 bytes each), so a query reads them sequentially and decodes nothing.
 // Immutable after construction; queries are thread-safe.
 
+#include "photon/bvh.h"
 #include "photon/photon_pass.h"
 
 #include <cstdint>
@@ -48,33 +49,14 @@ public:
     const std::vector<Record>& records() const { return records_; }
 
 private:
-    struct Node {
-        Box3 bounds;           ///< of the photon spheres below
-        uint32_t begin, end;   ///< leaf: range in records_; inner: end = 0
-        uint32_t left, right;  ///< children (inner)
-    };
-    uint32_t build(uint32_t begin, uint32_t end);
-
     std::vector<Record> records_;  ///< grouped by leaf
-    std::vector<Node> nodes_;
+    Bvh bvh_;                      ///< over the photon spheres
 };
 
 template <class F>
 void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
-    if (nodes_.empty() || !(t1 > t0)) return;
-    uint32_t stack[64];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        const Node& node = nodes_[stack[--top]];
-        float te, tx;
-        if (!intersect_box(node.bounds, ray, t0, t1, &te, &tx)) continue;
-        if (node.end == 0) {
-            stack[top++] = node.left;
-            stack[top++] = node.right;
-            continue;
-        }
-        for (uint32_t i = node.begin; i < node.end; ++i) {
+    bvh_.for_each_leaf(ray, t0, t1, [&](uint32_t begin, uint32_t end) {
+        for (uint32_t i = begin; i < end; ++i) {
             const Record& p = records_[i];
             // In double: r² − d² of a grazing chord cancels most of a float's digits.
             const DVec3 v = DVec3(p.position) - DVec3(ray.o);
@@ -88,7 +70,7 @@ void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
             f(p, static_cast<float>(std::clamp(t, a, b)),
               p.norm * static_cast<float>(0.5 * (b - a)));
         }
-    }
+    });
 }
 
 }  // namespace fogmap

@@ -10,7 +10,6 @@ namespace fogmap {
 
 namespace {
 
-constexpr uint32_t kPieceLeaf = 8;
 constexpr size_t kRadiusSamples = 4096;  // beams whose midpoints set the radius
 
 }  // namespace
@@ -48,7 +47,7 @@ PhotonBeams::PhotonBeams(const PhotonMap& map, int k, float r_max)
             const int n = static_cast<int>(std::ceil(length / longest));
             for (int j = 0; j < n; ++j) {
                 const float s0 = length * j / n, s1 = j + 1 == n ? length : length * (j + 1) / n;
-                cut[i].push_back(Piece{a + s0 * w, s1 - s0, w, radius_, power});
+                cut[i].push_back(Piece{a + s0 * w, s1 - s0, w, power});
             }
         }
     });
@@ -56,56 +55,14 @@ PhotonBeams::PhotonBeams(const PhotonMap& map, int k, float r_max)
     for (const auto& c : cut) n += c.size();
     pieces_.reserve(n);
     for (auto& c : cut) pieces_.insert(pieces_.end(), c.begin(), c.end());
-    if (pieces_.empty()) return;
-    nodes_.reserve(2 * (n / kPieceLeaf + 1));
-    build(0, static_cast<uint32_t>(n));
-    // Bounds of the capsules, bottom up (children come after their parent).
-    for (size_t i = nodes_.size(); i-- > 0;) {
-        Node& node = nodes_[i];
-        node.bounds = Box3{};
-        if (node.end != 0) {
-            for (uint32_t j = node.begin; j < node.end; ++j) {
-                const Piece& p = pieces_[j];
-                const Vec3 b = p.start + p.length * p.dir;
-                node.bounds.extend(glm::min(p.start, b) - Vec3(p.r));
-                node.bounds.extend(glm::max(p.start, b) + Vec3(p.r));
-            }
-        } else {
-            node.bounds.extend(nodes_[node.left].bounds);
-            node.bounds.extend(nodes_[node.right].bounds);
-        }
-    }
+    bvh_.build(pieces_, [](const Piece& p) { return p.start + 0.5f * p.length * p.dir; });
+    bvh_.fit([&](uint32_t i) {
+        const Piece& p = pieces_[i];
+        const Vec3 b = p.start + p.length * p.dir;
+        return Box3{glm::min(p.start, b) - Vec3(radius_), glm::max(p.start, b) + Vec3(radius_)};
+    });
 }
 
-// The hierarchy over the pieces' midpoints (median split along the widest axis).
-uint32_t PhotonBeams::build(uint32_t begin, uint32_t end) {
-    const uint32_t index = static_cast<uint32_t>(nodes_.size());
-    nodes_.push_back(Node{});
-    if (end - begin <= kPieceLeaf) {
-        nodes_[index].begin = begin;
-        nodes_[index].end = end;
-        return index;
-    }
-    auto mid_point = [](const Piece& p) { return p.start + 0.5f * p.length * p.dir; };
-    Box3 centres;
-    for (uint32_t i = begin; i < end; ++i) centres.extend(mid_point(pieces_[i]));
-    const Vec3 e = centres.extent();
-    const int axis = (e.x >= e.y && e.x >= e.z) ? 0 : (e.y >= e.z ? 1 : 2);
-    const uint32_t mid = begin + (end - begin) / 2;
-    std::nth_element(
-        pieces_.begin() + begin, pieces_.begin() + mid, pieces_.begin() + end,
-        [&](const Piece& a, const Piece& b) { return mid_point(a)[axis] < mid_point(b)[axis]; });
-    const uint32_t left = build(begin, mid);
-    const uint32_t right = build(mid, end);
-    nodes_[index].begin = begin;
-    nodes_[index].end = 0;
-    nodes_[index].left = left;
-    nodes_[index].right = right;
-    return index;
-}
-
-size_t PhotonBeams::bytes() const {
-    return pieces_.capacity() * sizeof(Piece) + nodes_.capacity() * sizeof(Node);
-}
+size_t PhotonBeams::bytes() const { return pieces_.capacity() * sizeof(Piece) + bvh_.bytes(); }
 
 }  // namespace fogmap

@@ -17,6 +17,7 @@
 // 10 km ground, 25k photons: plume −1.3% against the path tracer, one radius −0.4%).
 // Immutable after construction; queries are thread-safe.
 
+#include "photon/bvh.h"
 #include "photon/photon_pass.h"
 
 #include <cstdint>
@@ -33,6 +34,7 @@ public:
     /// of the distance from the beam's midpoint to its k-th nearest point photon (r_max if there
     /// are fewer within r_max), clamped to (0, r_max]; r_max when k <= 0.
     static float map_radius(const PhotonMap& map, int k, float r_max);
+    float radius() const { return radius_; }
 
     static constexpr float kPieceRadii = 8.0f;  ///< longest piece, in its radii
 
@@ -41,13 +43,12 @@ public:
         Vec3 start;
         float length;
         Vec3 dir;     ///< unit, the photon's travel direction
-        float r;      ///< radius
         Color power;  ///< relative power, as stored (× the map's photon_power: watts)
     };
 
     /// Calls f(const Piece&, float t, float kernel) for each piece whose finite cylinder of
-    /// radius r the ray segment o + t d, t in [t0, t1] (unit d), crosses: t is the point of the
-    /// chord closest to the piece's axis, kernel = chord length / (π r²) (1/area).
+    /// radius r = radius() the ray segment o + t d, t in [t0, t1] (unit d), crosses: t is the
+    /// point of the chord closest to the piece's axis, kernel = chord length / (π r²) (1/area).
     template <class F>
     void for_each_hit(const Ray& ray, float t0, float t1, F&& f) const;
 
@@ -55,39 +56,21 @@ public:
     const std::vector<Piece>& pieces() const { return pieces_; }
 
 private:
-    struct Node {
-        Box3 bounds;           ///< of the pieces' capsules below
-        uint32_t begin, end;   ///< leaf: range in pieces_; inner: end = 0
-        uint32_t left, right;  ///< children (inner)
-    };
-    uint32_t build(uint32_t begin, uint32_t end);
-
     float radius_;
-    std::vector<Piece> pieces_;
-    std::vector<Node> nodes_;
+    std::vector<Piece> pieces_;  ///< grouped by leaf
+    Bvh bvh_;                    ///< over the pieces' capsules
 };
 
 template <class F>
 void PhotonBeams::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
-    if (nodes_.empty() || !(t1 > t0)) return;
-    uint32_t stack[64];
-    int top = 0;
-    stack[top++] = 0;
     const DVec3 o(ray.o), d(ray.d);
-    while (top > 0) {
-        const Node& node = nodes_[stack[--top]];
-        float te, tx;
-        if (!intersect_box(node.bounds, ray, t0, t1, &te, &tx)) continue;
-        if (node.end == 0) {
-            stack[top++] = node.left;
-            stack[top++] = node.right;
-            continue;
-        }
-        for (uint32_t i = node.begin; i < node.end; ++i) {
+    const double r2 = double(radius_) * radius_;
+    bvh_.for_each_leaf(ray, t0, t1, [&](uint32_t begin, uint32_t end) {
+        for (uint32_t i = begin; i < end; ++i) {
             const Piece& p = pieces_[i];
             // In double: near-parallel lines and grazing chords cancel most of a float's digits.
             const DVec3 w(p.dir), u = DVec3(p.start) - o;
-            const double b = glm::dot(d, w), sin2 = 1.0 - b * b, r2 = double(p.r) * p.r;
+            const double b = glm::dot(d, w), sin2 = 1.0 - b * b;
             const double du = glm::dot(d, u), wu = glm::dot(w, u);
             // The ray's chord through the infinite cylinder: around the closest point t_c.
             double lo = t0, hi = t1, tc;
@@ -117,7 +100,7 @@ void PhotonBeams::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const 
             f(p, static_cast<float>(std::clamp(tc, lo, hi)),
               static_cast<float>((hi - lo) / (kPi * r2)));
         }
-    }
+    });
 }
 
 }  // namespace fogmap

@@ -39,7 +39,6 @@ public:
     /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
     double precompute_s() const { return precompute_s_; }
     const BeamTree* beam_tree() const { return beam_.get(); }
-    const PhotonBeams* photon_beams() const { return beams_.get(); }
 
 private:
     struct Irradiance;

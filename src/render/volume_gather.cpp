@@ -11,6 +11,17 @@
 
 namespace fogmap {
 
+namespace {
+
+// The step holding t, or the first step after t (t in a gap between media); null past the last.
+const MarchedStep* step_at(const std::vector<MarchedStep>& steps, float t) {
+    const auto it = std::upper_bound(steps.begin(), steps.end(), t,
+                                     [](float v, const MarchedStep& s) { return v < s.t1; });
+    return it == steps.end() ? nullptr : &*it;
+}
+
+}  // namespace
+
 VolumeGather::VolumeGather(const Scene& scene, const MarchSettings& march,
                            const GatherParams& gather, const PhotonMap* map, const BeamTree* beam,
                            const PhotonBeams* beams)
@@ -117,10 +128,8 @@ Color VolumeGather::single_scattering(const Ray& ray, const Color& beta, Rng& rn
             if (p > 0.0f) sum += radiance_at(light, s, t) / (m * p);
             if (!equi) continue;
             const float te = equi->sample((j + rng.uniform()) / m);
-            const auto it =
-                std::upper_bound(steps.begin(), steps.end(), te,
-                                 [](float v, const MarchedStep& x) { return v < x.t1; });
-            if (it == steps.end() || te < it->t0) continue;  // in a gap without medium
+            const MarchedStep* it = step_at(steps, te);
+            if (!it || te < it->t0) continue;  // in a gap without medium
             const float pe = steps_pdf(*it, te) + equi_pdf(te);
             if (pe > 0.0f) sum += radiance_at(light, *it, te) / (m * pe);
         }
@@ -181,10 +190,9 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
     Color sum(0.0f);
     beam_->for_each_hit(ray, t0, t1, [&](const BeamTree::Record& p, float t, float kernel) {
         ++st.queries;
-        // The step holding t (or the gap before it: τ stays at the previous step's end).
-        const auto it = std::upper_bound(depth.begin(), depth.end(), t,
-                                         [](float v, const MarchedStep& s) { return v < s.t1; });
-        if (it == depth.end()) return;
+        // τ stays at the previous step's end in the gap before a step.
+        const MarchedStep* it = step_at(depth, t);
+        if (!it) return;
         const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
         const float phase =
             one_medium ? single.eval(glm::dot(p.direction, -ray.d))
@@ -194,9 +202,10 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
     return sum * map_->photon_power;
 }
 
-// Σ_b Φ_b σ_s(t_b) f(θ_b) T(0, t_b) / (2 r_b sin θ_b) over the beam pieces whose lines pass
-// within their radii of the marched segment (photon/photon_beams.h), σ_s and T from the march's
-// own table (σ held constant per step; nothing scatters in the gaps between media).
+// Σ_b Φ_b σ_s(t_b) f(θ_b) T(0, t_b) chord_b / (π r²) over the beam pieces whose cylinders the
+// marched segment crosses (photon/photon_beams.h), t_b the chord's point closest to the beam, σ_s
+// and T from the march's own table (σ held constant per step; nothing scatters in the gaps
+// between media).
 Color VolumeGather::photon_beam_estimate(const Ray& ray, State& st) const {
     const std::vector<MarchedStep>& depth = st.steps;
     const float t0 = depth.front().t0, t1 = depth.back().t1;
@@ -205,9 +214,8 @@ Color VolumeGather::photon_beam_estimate(const Ray& ray, State& st) const {
     Color sum(0.0f);
     beams_->for_each_hit(ray, t0, t1, [&](const PhotonBeams::Piece& p, float t, float kernel) {
         ++st.queries;
-        const auto it = std::upper_bound(depth.begin(), depth.end(), t,
-                                         [](float v, const MarchedStep& s) { return v < s.t1; });
-        if (it == depth.end() || t < it->t0) return;
+        const MarchedStep* it = step_at(depth, t);
+        if (!it || t < it->t0) return;  // past the march, or in a gap between media
         const Color tau = it->tau0 + it->sigma_t * (t - it->t0);
         const float cos_theta = glm::dot(p.dir, -ray.d);
         const float phase = one_medium ? single.eval(cos_theta)

@@ -157,7 +157,8 @@ struct CausticGatherSettings {
 
 /// sphere: point queries along the camera march; beam: one query per ray segment over photon
 /// spheres (Jarosz, Zwicker, Jensen 2008); photon_beams: one query per ray segment over the photon
-/// paths' segments (beam × beam 1D, Jarosz, Nowrouzezahrai, Sadeghi, Jensen 2011).
+/// paths' segments blurred into cylinders (photon/photon_beams.h; Jarosz, Nowrouzezahrai, Sadeghi,
+/// Jensen 2011).
 enum class VolumeEstimator { Sphere, Beam, PhotonBeams };
 
 /// Volume map: the beam estimate with per-photon radii (the k-th neighbour's distance, at most

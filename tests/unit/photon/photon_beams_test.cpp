@@ -57,7 +57,8 @@ TEST(PhotonBeams, QueriesReturnEveryBeamsChordThroughItsCylinder) {
         segments.push_back({a, a + length * dir});
         map.beams.emplace_back(a, a + length * dir, Color(1.0f));
     }
-    const PhotonBeams beams(map, 0, kR);                // k 0: every radius kR
+    const PhotonBeams beams(map, 0, kR);  // k 0: the radius is kR
+    ASSERT_EQ(beams.radius(), kR);
     ASSERT_GT(beams.pieces().size(), segments.size());  // long beams were cut
 
     // The beam a piece was cut from: its start on that beam's axis, the same direction.
