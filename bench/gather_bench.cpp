@@ -4,18 +4,22 @@
 //   sphere_every_step  march + the k-NN sphere estimate at every step (volume.lookups_per_ray 0),
 //   sphere_8_lookups   march + 8 lookups at steps drawn by stratified importance sampling of the
 //                      march weights (the integrator's default, volume.lookups_per_ray = 8),
-//   beam               march + one BeamTree::for_each_hit per ray.
+//   beam               march + one BeamTree::for_each_hit per ray,
+//   photon_beams       march + one PhotonBeams::for_each_hit per ray over the same photon paths'
+//                      beams (volume.estimator photon_beams).
 // Each runs render/volume_gather.h's multiple scattering, the code the photon integrator runs,
 // without shadow rays. Scenes (bench_volumes.h): the Disney cloud (1/16) with 100k volume photons
-// and smoke1 with 20k, k = 50, radius 5% of the grid's diagonal (the scene defaults). Rays: a
+// and smoke1 with 20k, k = 50, radius 5% of the grid's diagonal (the scene defaults), traced once
+// with their beams (so delta-tracked, as photon beams need) for every estimate. Rays: a
 // pinhole fan from two grid extents away on +z towards random points of the grid's bounds; fixed
-// seeds. ns per ray in thread CPU time; beam sets `speedup_vs_<sphere variant>`; mean_L (luminance
-// of the estimate per ray) shows the estimators agree.
+// seeds. ns per ray in thread CPU time; beam and photon_beams set `speedup_vs_<variant>`; mean_L
+// (luminance of the estimate per ray) shows the estimators agree.
 
 #include "bench_volumes.h"
 #include "core/rng.h"
 #include "core/timer.h"
 #include "photon/beam_tree.h"
+#include "photon/photon_beams.h"
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
 #include "render/volume_gather.h"
@@ -39,7 +43,7 @@ constexpr int kRays = 1024;
 constexpr int kK = 50;
 constexpr int kLookups = 8;
 
-enum class Estimate { MarchOnly, SphereEveryStep, Sphere8, Beam };
+enum class Estimate { MarchOnly, SphereEveryStep, Sphere8, Beam, PhotonBeams };
 const char* estimate_name(Estimate e) {
     switch (e) {
         case Estimate::MarchOnly:
@@ -50,6 +54,8 @@ const char* estimate_name(Estimate e) {
             return "sphere_8_lookups";
         case Estimate::Beam:
             return "beam";
+        case Estimate::PhotonBeams:
+            return "photon_beams";
     }
     return "?";
 }
@@ -62,7 +68,8 @@ struct Fixture {
     PhotonMaps maps;
     GatherParams gather;
     std::unique_ptr<BeamTree> beam;
-    double beam_build_s = 0.0;
+    std::unique_ptr<PhotonBeams> beams;
+    double beam_build_s = 0.0, beams_build_s = 0.0;
     std::vector<Ray> rays;
 };
 
@@ -76,13 +83,20 @@ const Fixture& fixture(const std::string& vdb) {
     f->vs = vdb_scene(vdb, vdb == kCloudVdb ? 100000 : 20000);
     f->scene = f->vs.scene.get();
     const SceneDesc& d = f->vs.desc;
+    PhotonSettings photons = d.photons;
+    photons.volume_beams = true;
+    MarchSettings delta = d.march;
+    delta.method = FreePathMethod::Delta;
     f->maps = build_trees(
-        trace_photons(*f->scene, make_plan(d), d.photons, d.march, d.render.seed, /*quiet=*/true));
+        trace_photons(*f->scene, make_plan(d), photons, delta, d.render.seed, /*quiet=*/true));
     f->gather = gather_params(d, *f->scene, f->maps, false);
     f->gather.volume.k = kK;
     const Timer timer;
     f->beam = std::make_unique<BeamTree>(*f->maps.volume, kK, f->gather.volume.radius);
     f->beam_build_s = timer.seconds();
+    const Timer beams_timer;
+    f->beams = std::make_unique<PhotonBeams>(*f->maps.volume, kK, f->gather.volume.radius);
+    f->beams_build_s = beams_timer.seconds();
     const Box3 box = f->scene->media[0].world_bounds();
     const Vec3 eye = box.center() + Vec3(0.0f, 0.0f, 2.0f * max_component(box.extent()));
     Rng rng(kSeed, 0);
@@ -98,9 +112,11 @@ const Fixture& fixture(const std::string& vdb) {
 /// The gather of one estimate: the integrator's VolumeGather with that estimator's settings.
 VolumeGather make_gather(const Fixture& f, Estimate e) {
     GatherParams p = f.gather;
-    p.estimator = e == Estimate::Beam ? VolumeEstimator::Beam : VolumeEstimator::Sphere;
+    p.estimator = e == Estimate::Beam          ? VolumeEstimator::Beam
+                  : e == Estimate::PhotonBeams ? VolumeEstimator::PhotonBeams
+                                               : VolumeEstimator::Sphere;
     p.lookups_per_ray = e == Estimate::Sphere8 ? kLookups : 0;
-    return VolumeGather(*f.scene, f.vs.desc.march, p, &*f.maps.volume, f.beam.get());
+    return VolumeGather(*f.scene, f.vs.desc.march, p, &*f.maps.volume, f.beam.get(), f.beams.get());
 }
 
 /// Multiple-scattering radiance along `ray` (throughput 1) for estimate e, or for march_only the
@@ -127,6 +143,10 @@ void bm_gather(benchmark::State& state, std::string vdb, Estimate e) {
         return;
     }
     const Fixture& f = fixture(vdb);
+    if (!f.maps.volume || f.maps.volume->tree.empty()) {
+        state.SkipWithError("the photon pass stored no volume photon");
+        return;
+    }
     const VolumeGather gather = make_gather(f, e);
     VolumeGather::State st = gather.make_state();
     double seconds = 0.0, sum_l = 0.0;
@@ -148,21 +168,27 @@ void bm_gather(benchmark::State& state, std::string vdb, Estimate e) {
     row[e] = ns;
     if (e == Estimate::MarchOnly) return;
     state.counters["mean_L"] = sum_l / static_cast<double>(rays);
-    state.counters[e == Estimate::Beam ? "photons_per_ray" : "lookups_per_ray"] =
+    state.counters[e == Estimate::Beam          ? "photons_per_ray"
+                   : e == Estimate::PhotonBeams ? "beams_per_ray"
+                                                : "lookups_per_ray"] =
         static_cast<double>(st.queries) / static_cast<double>(rays);
     if (const auto it = row.find(Estimate::MarchOnly); it != row.end())
         state.counters["estimate_ns_per_ray"] = ns - it->second;
-    if (e != Estimate::Beam) return;
-    state.counters["beam_build_ms"] = 1e3 * f.beam_build_s;
-    for (Estimate s : {Estimate::SphereEveryStep, Estimate::Sphere8})
-        if (const auto it = row.find(s); it != row.end())
+    if (e != Estimate::Beam && e != Estimate::PhotonBeams) return;
+    state.counters["build_ms"] = 1e3 * (e == Estimate::Beam ? f.beam_build_s : f.beams_build_s);
+    if (e == Estimate::PhotonBeams)
+        state.counters["beams"] = static_cast<double>(f.maps.volume->beams.size());
+    for (Estimate s : {Estimate::SphereEveryStep, Estimate::Sphere8, Estimate::Beam}) {
+        const auto it = row.find(s);
+        if (s != e && it != row.end())
             state.counters[std::string("speedup_vs_") + estimate_name(s)] = it->second / ns;
+    }
 }
 
 void register_all() {
     for (const char* vdb : {kCloudVdb, kSmokeVdb}) {
-        for (Estimate e :
-             {Estimate::MarchOnly, Estimate::SphereEveryStep, Estimate::Sphere8, Estimate::Beam}) {
+        for (Estimate e : {Estimate::MarchOnly, Estimate::SphereEveryStep, Estimate::Sphere8,
+                           Estimate::Beam, Estimate::PhotonBeams}) {
             benchmark::RegisterBenchmark(
                 (std::string("gather/") + vdb + "/" + estimate_name(e)).c_str(), bm_gather,
                 std::string(vdb), e)

@@ -66,6 +66,10 @@ void bm_trace(benchmark::State& state, std::string vdb) {
         emitted += pass.emitted;
         stored += pass.volume ? pass.volume->photons.size() : 0;
     }
+    if (stored == 0) {
+        state.SkipWithError("the photon pass stored no volume photon");
+        return;
+    }
     const double photons_per_s = static_cast<double>(emitted) / seconds;
     state.counters["photons_per_s"] = photons_per_s;
     state.counters["stored_per_s"] = static_cast<double>(stored) / seconds;
