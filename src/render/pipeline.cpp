@@ -35,7 +35,7 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     for (const auto& [name, map] : named)
         if (*map)
             out.push_back({name, (*map)->tree.size(), (*map)->emitted, (*map)->tree.bytes(),
-                           (*map)->build_s, (*map)->stopped});
+                           (*map)->build_s, (*map)->stopped, (*map)->beams.size()});
     return out;
 }
 

@@ -40,6 +40,7 @@ std::string report_text(const Report& r) {
             << m.bytes << " bytes, "
             << fixed(m.stored > 0 ? double(m.bytes) / double(m.stored) : 0.0, 1)
             << " bytes/photon, tree built in " << fixed(m.build_s, 3) << " s"
+            << (m.beams > 0 ? "; " + std::to_string(m.beams) + " photon beams" : "")
             << (m.stopped.empty() ? "" : "; " + m.stopped) << "\n";
     }
     if (r.photons_emitted > 0) out << "photons emitted: " << r.photons_emitted << "\n";
@@ -101,7 +102,8 @@ nlohmann::json report_json(const Report& r) {
                         {"bytes", m.bytes},
                         {"bytes_per_photon", m.stored > 0 ? double(m.bytes) / m.stored : 0.0},
                         {"build_s", m.build_s},
-                        {"stopped", m.stopped}};
+                        {"stopped", m.stopped},
+                        {"beams", m.beams}};
     return {{"scene", r.scene},
             {"settings", r.settings},
             {"width", r.width},

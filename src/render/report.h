@@ -19,6 +19,7 @@ struct MapReport {
     uint64_t bytes = 0;    ///< records + tree
     double build_s = 0.0;  ///< kd-tree build wall time
     std::string stopped;   ///< why it closed below its budget by rule ("" if it did not)
+    uint64_t beams = 0;    ///< photon beams kept beside the volume map's photons (28 bytes each)
 };
 
 /// One iteration of a run (a plain render is one iteration; progressive runs have many).
