@@ -85,10 +85,8 @@ const Fixture& fixture(const std::string& vdb) {
     const SceneDesc& d = f->vs.desc;
     PhotonSettings photons = d.photons;
     photons.volume_beams = true;
-    MarchSettings delta = d.march;
-    delta.method = FreePathMethod::Delta;
     f->maps = build_trees(
-        trace_photons(*f->scene, make_plan(d), photons, delta, d.render.seed, /*quiet=*/true));
+        trace_photons(*f->scene, make_plan(d), photons, d.march, d.render.seed, /*quiet=*/true));
     f->gather = gather_params(d, *f->scene, f->maps, false);
     f->gather.volume.k = kK;
     const Timer timer;

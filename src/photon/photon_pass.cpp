@@ -257,7 +257,9 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
     // Ranks sharing the pass trace every n_ranks-th chunk of each round (the chunk count does
     // not depend on the rank count) and exchange them before the merge.
     const size_t n_ranks = ranks ? size_t(ranks->size()) : 1, my_rank = ranks ? ranks->rank() : 0;
-    PhotonTracer tracer(scene, march, settings.max_bounces);
+    MarchSettings free_paths = march;
+    if (settings.volume_beams) free_paths.method = FreePathMethod::Delta;
+    PhotonTracer tracer(scene, free_paths, settings.max_bounces);
     tracer.set_bounce_owner(&set);
     tracer.set_beams(settings.volume_beams && maps[kVolume]);
     std::array<bool, 3> open;  // maps still taking photons
@@ -526,16 +528,16 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             map.photon_power = std::max(map.photon_power, static_cast<float>(weight[s]));
             streams[s].stored[m] = pairs[s][m].stored;
         }
-        for (size_t i = 0; i < map.photons.size(); ++i) {
-            Photon& p = map.photons[i];
-            const double w = weight[photon_stream[m][i]] / map.photon_power;
-            if (w != 1.0) p.power_rgbe = encode_rgbe(p.power() * static_cast<float>(w));
-        }
-        for (size_t i = 0; i < map.beams.size(); ++i) {
-            PhotonBeam& b = map.beams[i];
-            const double w = weight[beam_stream[i]] / map.photon_power;
-            if (w != 1.0) b.power_rgbe = encode_rgbe(b.power() * static_cast<float>(w));
-        }
+        // Photons and beams alike: each record's power rescaled to its stream's weight.
+        auto reweigh = [&](auto& records, const std::vector<uint16_t>& stream_of) {
+            for (size_t i = 0; i < records.size(); ++i) {
+                const double w = weight[stream_of[i]] / map.photon_power;
+                if (w != 1.0)
+                    records[i].power_rgbe = encode_rgbe(records[i].power() * static_cast<float>(w));
+            }
+        };
+        reweigh(map.photons, photon_stream[m]);
+        reweigh(map.beams, beam_stream);
         if (map.photons.size() < map.budget && map.stopped.empty())
             result.warnings.push_back(
                 std::string(kNames[m]) + " map: " + std::to_string(map.photons.size()) + " of " +

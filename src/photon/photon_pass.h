@@ -71,7 +71,9 @@ struct PhotonPassResult {
 class Ranks;
 
 /// Runs the photon pass for the maps the plan turns on, with `settings`' budgets, free paths as
-/// `march` says, and photon i drawing from Rng(seed, i, kPhotonStream). Progress on stderr
+/// `march` says (delta-tracked whatever it says with settings.volume_beams: a short beam takes
+/// its photon's presence for the transmittance, so free paths must be exact; photon_beams.h),
+/// and photon i drawing from Rng(seed, i, kPhotonStream). Progress on stderr
 /// unless quiet. With `ranks` (core/ranks.h) every rank calls it with the same arguments, each
 /// traces a share of the photons, and every rank returns the maps one process would build.
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,

@@ -17,28 +17,17 @@ namespace {
 
 constexpr float kGatherNormalCos = 0.9f;  // irradiance points count only on like-facing surfaces
 
-// The beam hierarchy when the beam estimate is asked for and there is a volume map; adds its
-// build time to *seconds.
-std::unique_ptr<BeamTree> build_beam(const PhotonMaps& maps, const GatherParams& gather,
-                                     double* seconds) {
-    if (gather.estimator != VolumeEstimator::Beam || !maps.volume) return nullptr;
+// The volume map's hierarchy for `estimator` (BeamTree for beam, PhotonBeams for photon_beams)
+// when that estimate is asked for and there is a volume map; adds its build time to *seconds.
+template <class Hierarchy>
+std::unique_ptr<Hierarchy> build_for(VolumeEstimator estimator, const PhotonMaps& maps,
+                                     const GatherParams& gather, double* seconds) {
+    if (gather.estimator != estimator || !maps.volume) return nullptr;
     const Timer timer;
-    auto beam = std::make_unique<BeamTree>(
+    auto built = std::make_unique<Hierarchy>(
         *maps.volume, gather.volume.fixed_radius ? 0 : gather.volume.k, gather.volume.radius);
     *seconds += timer.seconds();
-    return beam;
-}
-
-// The photon-beam hierarchy when the photon-beam estimate is asked for and there is a volume
-// map; adds its build time to *seconds.
-std::unique_ptr<PhotonBeams> build_photon_beams(const PhotonMaps& maps, const GatherParams& gather,
-                                                double* seconds) {
-    if (gather.estimator != VolumeEstimator::PhotonBeams || !maps.volume) return nullptr;
-    const Timer timer;
-    auto beams = std::make_unique<PhotonBeams>(
-        *maps.volume, gather.volume.fixed_radius ? 0 : gather.volume.k, gather.volume.radius);
-    *seconds += timer.seconds();
-    return beams;
+    return built;
 }
 
 }  // namespace
@@ -66,8 +55,8 @@ PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
       maps_(maps),
       gather_(gather),
       max_depth_(max_depth),
-      beam_(build_beam(maps, gather, &precompute_s_)),
-      beams_(build_photon_beams(maps, gather, &precompute_s_)),
+      beam_(build_for<BeamTree>(VolumeEstimator::Beam, maps, gather, &precompute_s_)),
+      beams_(build_for<PhotonBeams>(VolumeEstimator::PhotonBeams, maps, gather, &precompute_s_)),
       volume_(scene, march, gather, maps.volume ? &*maps.volume : nullptr, beam_.get(),
               beams_.get()) {
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;

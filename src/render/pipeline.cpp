@@ -1,11 +1,11 @@
 #include "render/pipeline.h"
 
 #include "core/parallel.h"
+#include "core/ranks.h"
 #include "core/rng.h"
 #include "core/timer.h"
 
 #include <nlohmann/json.hpp>
-#include "core/ranks.h"
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
 #include "render/metrics.h"
@@ -109,12 +109,10 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const ThreadLimit threads(desc.render.threads);
     const bool photon = desc.render.integrator == Integrator::Photon;
     const bool guided = desc.render.integrator == Integrator::Guided;
-    // Photon beams take each photon's presence along its free path as the transmittance, so their
-    // free paths are delta-tracked, exact, whatever march.method says (photon/photon_beams.h).
+    // The photon beams estimate needs the photon paths' beams (their free paths then delta-tracked:
+    // photon/photon_pass.h).
     PhotonSettings photons = desc.photons;
     photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
-    MarchSettings photon_march = desc.march;
-    if (photons.volume_beams) photon_march.method = FreePathMethod::Delta;
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
@@ -170,7 +168,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
     // does not run it traces its photons for that alone.
     if (progressive && (my_rank != 0 || base > 0)) {
-        PhotonPassResult pass = trace_photons(*scene, plan, photons, photon_march,
+        PhotonPassResult pass = trace_photons(*scene, plan, photons, desc.march,
                                               iteration_seed(desc.render.seed, 1, true), true);
         first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
     }
@@ -196,7 +194,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             RenderStats stats;
             Film film;
             if (photon || guided) {
-                PhotonPassResult pass = trace_photons(*scene, plan, photons, photon_march,
+                PhotonPassResult pass = trace_photons(*scene, plan, photons, desc.march,
                                                       settings.seed, quiet_pass, pass_ranks);
                 if (i == 1) {
                     for (const std::string& w : pass.warnings) warn(w);
