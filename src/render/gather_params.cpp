@@ -45,8 +45,9 @@ GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const Phot
         map_gather(desc.global.k, desc.global.radius, 0.02f * diag, first.global, progressive);
     p.caustic =
         map_gather(desc.caustic.k, desc.caustic.radius, 0.01f * diag, first.caustic, progressive);
+    p.gather_depth = desc.volume.gather_depth;
     p.volume = map_gather(desc.volume.k, desc.volume.radius, 0.05f * media_diag, first.volume,
-                          progressive);
+                          progressive || p.gather_depth > 0);
     p.final_gather = desc.global.final_gather;
     p.gather_rays = desc.global.gather_rays;
     p.cone_filter = desc.caustic.cone_filter;

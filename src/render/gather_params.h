@@ -27,13 +27,16 @@ struct GatherParams {
     VolumeEstimator estimator = VolumeEstimator::Sphere;
     int lookups_per_ray = 8;  ///< volume-map lookups per camera segment; 0 = every step
     int light_samples = 4;  ///< single-scattering shadow rays per light and segment; 0 = every step
+    int gather_depth = 0;   ///< > 0: camera paths end in the volume map at this medium vertex
 };
 
 /// Iteration 1's gather. Radii the scene leaves at 0 default to 2% (global) and 1% (caustic) of
 /// the scene's diagonal and 5% of the media's. A plain render gathers the k nearest within the
 /// radius; a progressive one (`progressive`) every photon within a fixed radius: the scene's, or
 /// where it gives none the median distance to the k-th nearest photon over up to 256 photons of
-/// `first` (the first iteration's maps; Hachisuka et al. start from a k-NN radius too).
+/// `first` (the first iteration's maps; Hachisuka et al. start from a k-NN radius too). Paths that
+/// end in the volume map (volume.gather_depth > 0) gather it within a fixed radius found so in a
+/// plain render too.
 GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const PhotonMaps& first,
                            bool progressive);
 

@@ -36,10 +36,12 @@ struct PathTracer::Lobe {
     Vec3 dir;                           // phase: incoming travel direction; diffuse: shading normal
     Color albedo;                       // diffuse
     const GuideLobes* guide = nullptr;  // phase: the guide directions are sampled from
+    bool last = false;                  // the path ends at this vertex: light sampling alone
 };
 
-PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide)
-    : scene_(scene), max_depth_(max_depth), guide_(guide) {
+PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide,
+                       const VolumeMapEnd* end)
+    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
@@ -130,7 +132,8 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         const Color T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi},
                                              s.dist * (1.0f - 1e-4f), rng, &ts.rays);
         if (max_component(T) <= 0.0f) continue;
-        const float w = light.is_delta() ? 1.0f : power_heuristic(s.pdf, lobe_pdf);
+        // A path that ends here has no phase-sampled ray to take the rest of the MIS weight.
+        const float w = light.is_delta() || lobe.last ? 1.0f : power_heuristic(s.pdf, lobe_pdf);
         sum += f * s.Li * T * (w / s.pdf);
     }
     return sum;
@@ -142,7 +145,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
     bool specular = true;  // the last vertex was the camera or a specular bounce: no MIS
     float prev_pdf = 0.0f;
     Vec3 prev_p = ray.o;
-    int depth = 0;
+    int depth = 0, medium_vertices = 0;
     for (;;) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
@@ -167,6 +170,13 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
                 ++depth;
                 const Vec3 x = ray.at(tr.t);
                 const PhaseMix phase(ts.media, x);
+                if (end_ && ++medium_vertices == end_->depth()) {
+                    // Direct light by a shadow ray, the rest from the map; the path ends here.
+                    L += beta *
+                         direct_light(x, Lobe{&phase, ray.d, Color(0.0f), nullptr, true}, rng, ts);
+                    L += beta * end_->inscattered(x, ray.d, phase);
+                    break;
+                }
                 const bool guided = guide_ && depth <= guide_->settings().vertices;
                 if (guided) guide_->prepare(x, ray.d, phase, ts.neighbors, &ts.lobes);
                 const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
@@ -237,8 +247,8 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
 }
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide) {
-    const PathTracer tracer(scene, settings.max_depth, guide);
+                 const VolumeGuide* guide, const VolumeMapEnd* end) {
+    const PathTracer tracer(scene, settings.max_depth, guide, end);
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed,
         TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,

@@ -6,11 +6,14 @@
 // importance sampling (power heuristic); Russian roulette once the throughput falls below 1;
 // max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
 // segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track).
+// With a VolumeMapEnd (the photon integrator's volume.gather_depth), paths end at their D-th medium
+// vertex in the volume map instead (render/volume_map_end.h).
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
 #include "render/film.h"
 #include "render/volume_guide.h"
+#include "render/volume_map_end.h"
 #include "scene/scene.h"
 
 #include <cstdint>
@@ -20,8 +23,10 @@ namespace fogmap {
 
 class PathTracer {
 public:
-    /// `guide` (may be null): scattering directions in media guided by the volume photon map.
-    PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr);
+    /// `guide` (may be null): scattering directions in media guided by the volume photon map;
+    /// `end` (may be null): paths end in the volume map at their end->depth()-th medium vertex.
+    PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr,
+               const VolumeMapEnd* end = nullptr);
 
     /// Per-thread mutable state: medium samplers and counters. One per task.
     struct ThreadState {
@@ -45,14 +50,15 @@ private:
     const Scene& scene_;
     int max_depth_;
     const VolumeGuide* guide_;
+    const VolumeMapEnd* end_;
     bool has_point_lights_ = false;
     bool emissive_ = false;  ///< some medium emits: camera paths collect σ_a L_e
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
-/// settings.max_depth (the worker count is the caller's ThreadLimit), guided by `guide` when
-/// given. An unlayered film. Progress on stderr unless quiet.
+/// settings.max_depth (the worker count is the caller's ThreadLimit), guided by `guide` and paths
+/// ended by `end` when given. An unlayered film. Progress on stderr unless quiet.
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide = nullptr);
+                 const VolumeGuide* guide = nullptr, const VolumeMapEnd* end = nullptr);
 
 }  // namespace fogmap

@@ -109,6 +109,8 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const ThreadLimit threads(desc.render.threads);
     const bool photon = desc.render.integrator == Integrator::Photon;
     const bool guided = desc.render.integrator == Integrator::Guided;
+    // Camera paths traced as the path tracer does, ended in the volume map: an unlayered film.
+    const bool map_end = photon && desc.volume.gather_depth > 0;
     // The photon beams estimate needs the photon paths' beams (their free paths then delta-tracked:
     // photon/photon_pass.h).
     PhotonSettings photons = desc.photons;
@@ -147,7 +149,8 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     // Every rank's sum and counts into rank 0's; the other ranks start again from zero.
     const auto gather_to_root = [&] {
         std::vector<int64_t> c = counts();
-        if (sum.values.empty()) sum.add(Film(desc.camera.width, desc.camera.height, photon));
+        if (sum.values.empty())
+            sum.add(Film(desc.camera.width, desc.camera.height, photon && !map_end));
         if (ranks) {
             const Timer reduce;
             ranks->sum_to_root(&c);
@@ -230,6 +233,15 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                     if (maps.volume) guide.emplace(*maps.volume, guide_settings(gather));
                     film = render_path(*scene, settings, quiet_pass, &stats,
                                        guide ? &*guide : nullptr);
+                } else if (map_end) {
+                    const Timer precompute;
+                    std::optional<VolumeMapEnd> end;
+                    if (maps.volume)
+                        end.emplace(*maps.volume, scene->media, gather.volume.radius,
+                                    gather.gather_depth);
+                    add_phase(&report, "precompute", precompute.seconds());
+                    film = render_path(*scene, settings, quiet_pass, &stats, nullptr,
+                                       end ? &*end : nullptr);
                 } else {
                     double precompute_s = 0.0;
                     film = render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,

@@ -93,8 +93,12 @@ PlanItem plan_marching(const SceneDesc& desc) {
                   "; photon free paths march, camera paths use delta tracking");
     }
     // march.method picks how photons find free paths (photon beams need exact ones: delta
-    // tracking); camera rays of this integrator always march.
+    // tracking); camera rays of this integrator march unless they end in the volume map.
     const char* how = "";
+    if (desc.volume.gather_depth > 0)
+        return on(count(desc.media.size(), "medium", "media") + "; photon free paths " +
+                  (desc.march.method == FreePathMethod::March ? "march" : "use delta tracking") +
+                  ", camera paths use delta tracking and end in the volume map");
     if (desc.volume.estimator == VolumeEstimator::PhotonBeams)
         return on(count(desc.media.size(), "medium", "media") +
                   "; camera rays march, photon free paths use delta tracking (photon beams)");
@@ -213,6 +217,14 @@ Plan make_plan(const SceneDesc& scene_desc) {
         plan.volume_map = plan_volume(desc);
         if (plan.volume_map) plan.volume_map.reason += "; it guides scattering in media";
         plan.global_map = plan.caustic_map = off("integrator is guided: only media are guided");
+    } else if (desc.volume.gather_depth > 0) {
+        const int d = desc.volume.gather_depth;
+        plan.volume_map = plan_volume(desc);
+        if (plan.volume_map)
+            plan.volume_map.reason +=
+                "; camera paths end in it at medium vertex " + std::to_string(d);
+        plan.global_map = plan.caustic_map =
+            off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {
         const size_t diffuse = count_shapes(desc, is_diffuse);
         plan.volume_map = plan_volume(desc);

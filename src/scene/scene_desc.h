@@ -176,6 +176,11 @@ struct VolumeGatherSettings {
     /// drawn ∝ the march's weights (and, for point and spot lights, as many again by equi-angular
     /// sampling, combined by the balance heuristic); 0 = a shadow ray at every step.
     int light_samples = 4;
+    /// Photon integrator: 0 = camera rays march and see the volume map directly; D >= 1 = camera
+    /// paths are traced as the path tracer traces them through D scattering vertices in media
+    /// and end at the D-th in the volume map (render/volume_map_end.h), within the radius at
+    /// which the median photon has k neighbours; surfaces are path traced (no surface maps).
+    int gather_depth = 0;
 };
 
 /// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0

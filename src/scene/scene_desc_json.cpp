@@ -190,6 +190,7 @@ void volume_fields(G& g, V& v) {
     v.choice("estimator", g.estimator, kVolumeEstimators, "volume estimator");
     v.value("lookups_per_ray", g.lookups_per_ray);
     v.value("light_samples", g.light_samples);
+    v.value("gather_depth", g.gather_depth);
 }
 
 template <class M, class V>

@@ -516,6 +516,13 @@ void check_gather(const SceneDesc& desc) {
         k.non_negative("radius", v.radius);
         k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
         k.int_range("light_samples", v.light_samples, 0, 4096);
+        k.int_range("gather_depth", v.gather_depth, 0, 1000);
+        if (v.gather_depth > 0 && v.estimator == VolumeEstimator::PhotonBeams)
+            k.fail("estimator",
+                   "\"photon_beams\" gathers along camera rays, which gather_depth " +
+                       std::to_string(v.gather_depth) +
+                       " replaces by paths ending in the volume map; expected gather_depth 0 or "
+                       "estimator \"sphere\" or \"beam\"");
         // A short beam's flux is its photon's power only where the free path was sampled with
         // every channel's own transmittance (photon/photon_beams.h).
         for (size_t i = 0; i < desc.media.size() && v.estimator == VolumeEstimator::PhotonBeams;
