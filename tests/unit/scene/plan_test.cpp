@@ -270,6 +270,23 @@ TEST(Plan, MarchingReasonNamesTheFreePathMethod) {
               "tracking (photon beams))");
 }
 
+// Paths that end in the volume map trace surfaces themselves: no surface maps, and the camera side
+// uses delta tracking.
+TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
+    json doc = glass_floor_fog();
+    doc["volume"] = json{{"gather_depth", 2}};
+    const Plan p = make_plan(scene(doc));
+    EXPECT_EQ(line(p, kMarching),
+              "ray marching: used (1 medium; photon free paths march, camera paths use delta "
+              "tracking and end in the volume map)");
+    EXPECT_EQ(line(p, kVolume),
+              "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
+              "in it at medium vertex 2)");
+    EXPECT_FALSE(p.global_map.on);
+    EXPECT_EQ(line(p, kCaustic),
+              "caustic map: skipped (volume.gather_depth 2: camera paths trace surfaces)");
+}
+
 TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
     // An area light is geometry the camera can hit, even without any shape.
     const Plan p = make_plan(scene(json::parse(R"({

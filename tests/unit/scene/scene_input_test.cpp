@@ -138,6 +138,20 @@ TEST(SceneInput, PhotonBeamsNeedGreyExtinction) {
     EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
 }
 
+// volume.gather_depth counts medium vertices; photon beams gather along marched camera rays, which
+// paths that end in the volume map do not have.
+TEST(SceneInput, GatherDepthIsCheckedAndExcludesPhotonBeams) {
+    json doc = scene();
+    doc["volume"] = json{{"gather_depth", -1}};
+    EXPECT_EQ(validate_error(doc).field, "/volume/gather_depth");
+    doc["volume"] = json{{"gather_depth", 2}, {"estimator", "photon_beams"}};
+    const InputError e = validate_error(doc);
+    EXPECT_EQ(e.field, "/volume/estimator");
+    EXPECT_NE(e.reason.find("gather_depth 2"), std::string::npos) << e.reason;
+    doc["volume"]["estimator"] = "sphere";
+    EXPECT_NO_THROW(validate(scene_desc_from_json(doc, "scene.json")));
+}
+
 TEST(SceneInput, EmissionValuesAreChecked) {
     json doc = scene();
     doc["media"] = json::parse(R"([{"type": "homogeneous", "sigma_a": 1,
