@@ -66,8 +66,8 @@ inline VdbScene vdb_scene(const std::string& vdb, uint64_t volume_photons,
     d.photons.volume = volume_photons;
     d.photons.max_emitted = max_emitted;
     d.render.seed = 1;
-    // The photon integrator named: "auto" picks the path tracer for a sun-lit medium, and its
-    // Plan builds no photon map (the gather and photon benchmarks measured empty maps so).
+    // The photon integrator named, the maps seen from camera rays: "auto" ends camera paths in
+    // the volume map for a sun-lit medium (the gather benchmark measures camera-ray lookups).
     d.render.integrator = Integrator::Photon;
     std::unique_ptr<Scene> scene = load_scene(d);
     return {std::move(d), std::move(scene)};

@@ -302,7 +302,8 @@ TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
 
 // render.integrator = "auto" picks by the measured rules (plan.h, choose_integrator): caustics
 // from small lights → photon; a point or spot light in a medium → photon; media under sun and
-// sky → path; a scene that names an integrator keeps it. The plan's first line says which and why.
+// sky → photon with camera paths ending in the volume map; no medium → path; a scene that names
+// an integrator keeps it. The plan's first line says which and why.
 TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     auto pick = [](json doc) {
         doc["render"]["integrator"] = "auto";
@@ -324,10 +325,20 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
                                         "angular_radius_deg": 0.27},
                                        {"type": "environment", "radiance": 0.2}])");
     const Plan smoke = pick(sunlit);
-    EXPECT_EQ(std::string(smoke.integrator_name), "path");
-    EXPECT_FALSE(smoke.volume_map.on);
-    EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: path (auto: media under sun", 0), 0u)
+    EXPECT_EQ(std::string(smoke.integrator_name), "photon");
+    EXPECT_TRUE(smoke.volume_map.on);
+    EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: photon (auto: media under sun", 0), 0u)
         << line(smoke, kIntegrator);
+    EXPECT_NE(line(smoke, kVolume).find("camera paths end in it at medium vertex 3"),
+              std::string::npos)
+        << line(smoke, kVolume);
+    json beams = sunlit;  // photon beams gather along marched camera rays: no depth
+    beams["volume"]["estimator"] = "photon_beams";
+    EXPECT_EQ(line(pick(beams), kVolume).find("camera paths end"), std::string::npos);
+
+    json vacuum = sunlit;
+    vacuum["media"] = json::array();
+    EXPECT_EQ(std::string(pick(vacuum).integrator_name), "path");
 
     json fire = sunlit;  // sun and sky, and the smoke glows
     fire["media"][0]["emission"] = json::parse(R"({"grid": "temperature"})");
