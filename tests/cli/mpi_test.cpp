@@ -97,10 +97,12 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
 TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
     // Every rank traces every n-th chunk of each photon round and renders every n-th tile; the
     // EXR is that of one process, for the photon maps (with points and with photon beams, which
-    // the ranks exchange beside the photons), the guided and the path tracer.
+    // the ranks exchange beside the photons; seen from camera rays and ending camera paths), the
+    // guided and the path tracer.
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     for (const char* integrator :
-         {"photon", "photon --set volume.estimator=photon_beams", "guided", "path"}) {
+         {"photon", "photon --set volume.estimator=photon_beams",
+          "photon --set volume.gather_depth=2", "guided", "path"}) {
         const std::string args = "render -q " + scene +
                                  " --set camera.width=40 --set camera.height=24 --set "
                                  "render.spp=2 --set photons.volume=8000 --set "
