@@ -32,8 +32,10 @@ namespace fogmap {
 /// average takes 3 × 3 × 3 points), or larger where the grid would exceed kMaxCells.
 class KernelDensity {
 public:
-    static constexpr size_t kMaxCells = size_t(1) << 22;
+    static constexpr size_t kMaxCells = size_t(1) << 22;  ///< 12 bytes each: at most 50 MB
+    /// The grid for a ball of `radius` (world units, > 0; otherwise empty: at() is 0).
     KernelDensity(const std::vector<Medium>& media, float radius);
+    /// σ̄_s at world point x, per channel (1/world unit); 0 beyond the grid.
     Color at(const Vec3& x) const;
 
 private:
@@ -48,7 +50,7 @@ public:
     /// `map`: the volume map (photons after their first interaction), gathered within `radius`;
     /// paths end at their `depth`-th medium vertex (>= 1).
     VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius, int depth);
-    int depth() const { return depth_; }
+    int depth() const { return depth_; }  ///< the medium vertex paths end at
     /// ∫ f(ω, ω') L_i(x, ω') dω' towards −dir (dir: the path's travel direction into x) for the
     /// light that arrived after at least one interaction, blurred over the ball of radius r.
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase) const;
