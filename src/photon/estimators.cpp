@@ -1,5 +1,11 @@
 #include "photon/estimators.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
 namespace fogmap {
 
 namespace {
@@ -52,6 +58,20 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
     }
     const float norm = cone_kf > 0.0f ? 1.0f - 2.0f / (3.0f * cone_kf) : 1.0f;
     return sum * (map.photon_power / (kPi * r2 * norm));
+}
+
+float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
+                          float r_max) {
+    std::vector<float> r(points.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 64), [&](const auto& range) {
+        NeighborList scratch;
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            map.tree.knn(points[i], k, r_max, &scratch);
+            r[i] = static_cast<int>(scratch.size()) == k ? std::sqrt(scratch.max_dist2()) : r_max;
+        }
+    });
+    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    return r[r.size() / 2];
 }
 
 Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,

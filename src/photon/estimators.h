@@ -10,6 +10,8 @@
 #include "media/phase.h"
 #include "photon/photon_pass.h"
 
+#include <vector>
+
 namespace fogmap {
 
 /// Irradiance (W/m²) at surface point x with unit normal n from photons that arrived on the side
@@ -17,6 +19,12 @@ namespace fogmap {
 /// skips caustic photons, which the caustic map shows). cone_kf = 0: box filter.
 Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
                          float cone_kf, uint8_t skip_flags, NeighborList& scratch);
+
+/// The median, over `points` (not empty), of the distance from each to its k-th nearest photon of
+/// `map`, r_max for a point with fewer than k within r_max: the radius a map's gathers share
+/// (progressive and end-of-path gathers, photon beams). Points in parallel; deterministic.
+float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
+                          float r_max);
 
 /// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
 /// function at x applied to each photon's travel direction.

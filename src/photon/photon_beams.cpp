@@ -1,5 +1,7 @@
 #include "photon/photon_beams.h"
 
+#include "photon/estimators.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -18,17 +20,12 @@ float PhotonBeams::map_radius(const PhotonMap& map, int k, float r_max) {
     const std::vector<PhotonBeam>& beams = map.beams;
     if (k <= 0 || map.tree.size() < static_cast<size_t>(k) || beams.empty()) return r_max;
     const size_t n = std::min(kRadiusSamples, beams.size());
-    std::vector<float> r(n);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const auto& range) {
-        NeighborList scratch;
-        for (size_t i = range.begin(); i != range.end(); ++i) {
-            const PhotonBeam& b = beams[i * beams.size() / n];
-            map.tree.knn(0.5f * (b.start() + b.end()), k, r_max, &scratch);
-            r[i] = static_cast<int>(scratch.size()) == k ? std::sqrt(scratch.max_dist2()) : r_max;
-        }
-    });
-    std::nth_element(r.begin(), r.begin() + n / 2, r.end());
-    return std::clamp(r[n / 2], 1e-6f * r_max, r_max);
+    std::vector<Vec3> midpoints(n);
+    for (size_t i = 0; i < n; ++i) {
+        const PhotonBeam& b = beams[i * beams.size() / n];
+        midpoints[i] = 0.5f * (b.start() + b.end());
+    }
+    return std::clamp(median_knn_distance(map, midpoints, k, r_max), 1e-6f * r_max, r_max);
 }
 
 PhotonBeams::PhotonBeams(const PhotonMap& map, int k, float r_max)

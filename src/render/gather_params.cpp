@@ -1,5 +1,7 @@
 #include "render/gather_params.h"
 
+#include "photon/estimators.h"
+
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -14,15 +16,10 @@ float median_knn_radius(const PhotonMap& map, int k, float fallback) {
     const std::vector<Photon>& photons = map.tree.records();
     if (photons.size() <= static_cast<size_t>(k)) return fallback;
     const size_t samples = std::min<size_t>(256, photons.size());
-    std::vector<float> r;
-    NeighborList scratch;
-    for (size_t i = 0; i < samples; ++i) {
-        map.tree.knn(photons[i * photons.size() / samples].position(), k, fallback, &scratch);
-        r.push_back(static_cast<int>(scratch.size()) >= k ? std::sqrt(scratch.max_dist2())
-                                                          : fallback);
-    }
-    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-    return r[r.size() / 2];
+    std::vector<Vec3> points(samples);
+    for (size_t i = 0; i < samples; ++i)
+        points[i] = photons[i * photons.size() / samples].position();
+    return median_knn_distance(map, points, k, fallback);
 }
 
 MapGather map_gather(int k, float radius, float default_radius, const std::optional<PhotonMap>& map,
