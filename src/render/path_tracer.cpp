@@ -174,7 +174,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
                     // Direct light by a shadow ray, the rest from the map; the path ends here.
                     L += beta *
                          direct_light(x, Lobe{&phase, ray.d, Color(0.0f), nullptr, true}, rng, ts);
-                    L += beta * end_->inscattered(x, ray.d, phase);
+                    L += beta * end_->inscattered(x, ray.d, phase, ts.neighbors);
                     break;
                 }
                 const bool guided = guide_ && depth <= guide_->settings().vertices;

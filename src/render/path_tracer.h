@@ -31,7 +31,7 @@ public:
     /// Per-thread mutable state: medium samplers and counters. One per task.
     struct ThreadState {
         std::vector<Medium::Sampler> media;
-        NeighborList neighbors;  ///< guide photons
+        NeighborList neighbors;  ///< guide photons, or the photons ending a path
         GuideLobes lobes;        ///< the guide at the current vertex
         uint64_t rays = 0;
         uint64_t capped = 0;  ///< paths cut by max_depth

@@ -1,5 +1,7 @@
 #include "render/volume_map_end.h"
 
+#include "photon/estimators.h"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -76,17 +78,15 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                            int depth)
     : map_(map), radius_(radius), depth_(depth), density_(media, radius) {}
 
-Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase) const {
-    Color sum(0.0f);
-    map_.tree.for_each_in_radius(x, radius_, [&](const Photon& p, float) {
-        sum += phase.eval(glm::dot(p.direction(), -dir)) * p.power();
-    });
-    if (!(max_component(sum) > 0.0f)) return Color(0.0f);
+Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
+                                NeighborList& scratch) const {
+    // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
+    const Color collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
+    if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
     const Color density = density_.at(x);
-    const float scale = map_.photon_power / ((4.0f / 3.0f) * kPi * radius_ * radius_ * radius_);
     Color out(0.0f);
     for (int c = 0; c < 3; ++c)
-        if (density[c] > 0.0f) out[c] = sum[c] * scale / density[c];
+        if (density[c] > 0.0f) out[c] = collisions[c] / density[c];
     return out;
 }
 

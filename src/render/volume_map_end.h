@@ -53,7 +53,9 @@ public:
     int depth() const { return depth_; }  ///< the medium vertex paths end at
     /// ∫ f(ω, ω') L_i(x, ω') dω' towards −dir (dir: the path's travel direction into x) for the
     /// light that arrived after at least one interaction, blurred over the ball of radius r.
-    Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase) const;
+    /// `scratch`: the calling thread's.
+    Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
+                      NeighborList& scratch) const;
 
 private:
     const PhotonMap& map_;

@@ -78,13 +78,15 @@ TEST(VolumeMapEnd, HomogeneousPhotonCloudGivesDensityTimesPowerTimesPhaseOverSig
     const float radius = 0.3f;
     const VolumeMapEnd end(map, media, radius, 2);
     const PhaseMix phase(g);
+    NeighborList scratch;
     const double rho = count / 8.0;  // photons per unit volume
     // Expected photons in the ball: 2827; Poisson: 1.9% standard deviation, 4 of them allowed.
     const double tolerance = 4.0 / std::sqrt(rho * 4.0 / 3.0 * kPi * std::pow(radius, 3.0));
     // A path travelling along −x leaves towards +x, the photons' own direction: forward
     // scattering, f(1); along +x it leaves against them, f(−1) (27 times smaller at g 0.5).
     for (const float along : {-1.0f, 1.0f}) {
-        const Color got = end.inscattered(Vec3(0.1f, -0.2f, 0.05f), Vec3(along, 0.0f, 0.0f), phase);
+        const Color got =
+            end.inscattered(Vec3(0.1f, -0.2f, 0.05f), Vec3(along, 0.0f, 0.0f), phase, scratch);
         const double f = phase.eval(-along);
         for (int c = 0; c < 3; ++c) {
             const double expected = rho * map.photon_power * f / sigma_s[c];
