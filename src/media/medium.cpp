@@ -381,6 +381,65 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
     }
 }
 
+InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max,
+                               Rng& rng, Color* emitted) {
+    const int n = static_cast<int>(media.size());
+    FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
+    std::array<float, kMaxMedia> t_next, mu;
+    for (int i = 0; i < n; ++i) {
+        t_next[i] = kInfinity;
+        if (media[i].begin_walk(ray, 0.0f, t_max) &&
+            !media[i].next_tentative(rng, &t_next[i], &mu[i]))
+            t_next[i] = kInfinity;
+    }
+    InscatterPick pick;
+    Color& T = pick.transmittance;
+    Color a_pick(0.0f);
+    float sum = 0.0f;  // Σ average(a_j)
+    for (;;) {
+        int i = -1;
+        for (int k = 0; k < n; ++k)
+            if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+        if (i < 0) break;
+        const float t = t_next[i], m = mu[i];
+        const MediumParams& p = media[i].medium().params();
+        const float d = media[i].density(ray.at(t));
+        if (d > 0.0f) {
+            if (emitted && media[i].medium().emission())
+                *emitted += T * d * p.sigma_a * media[i].emission(ray.at(t)) / m;
+            const Color a = T * d * p.sigma_s / m;
+            const float wa = average(a);
+            if (wa > 0.0f) {
+                sum += wa;
+                if (rng.uniform() * sum < wa) {  // reservoir: t_i kept with probability wa / sum
+                    a_pick = a;
+                    pick.t = t;
+                    pick.medium = i;
+                }
+            }
+            T *= glm::max(Color(1.0f) - (d / m) * (p.sigma_s + p.sigma_a), Color(0.0f));
+            const float tmax = max_component(T);
+            if (tmax <= 0.0f) break;
+            if (tmax < 0.1f) {  // Russian roulette, as ratio_track
+                if (rng.uniform() < 0.5f) {
+                    T = Color(0.0f);
+                    break;
+                }
+                T *= 2.0f;
+            }
+        }
+        if (!media[i].next_tentative(rng, &t_next[i], &mu[i])) {
+            if (media[i].exhausted()) {  // opaque at every resolved scale: see header
+                T = Color(0.0f);
+                break;
+            }
+            t_next[i] = kInfinity;
+        }
+    }
+    if (pick.medium >= 0) pick.weight = a_pick * (sum / average(a_pick));
+    return pick;
+}
+
 Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng) {
     Color T(1.0f);      // the residual's ratio-tracking product
     DVec3 tau_c(0.0);   // the control's optical depth, exact

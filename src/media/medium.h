@@ -182,6 +182,23 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
                         Color* beta, Collision collision = Collision::Analog,
                         Color* emitted = nullptr);
 
+/// One in-scattering point along a ray and the ray's transmittance, from one ratio-tracking walk
+/// (no scattering decision): every tentative collision t_i of the majorant's Poisson process
+/// scores a_i = T_i σ_s(t_i) / μ_i (T_i the ratio-tracking product before t_i, so Σ a_i is an
+/// unbiased estimate of ∫ T σ_s dt); one t_i is picked ∝ average(a_i) and carries
+/// weight = a_i Σ_j average(a_j) / average(a_i), so weight · f(t_pick) estimates ∫ T σ_s f dt
+/// without bias for any f. `transmittance` is the walk's product at t_max (Russian roulette once
+/// it falls below 0.1, as ratio_track). With `emitted`, adds T_i σ_a L_e / μ_i at every tentative
+/// collision of an emitting medium.
+struct InscatterPick {
+    Color transmittance{1.0f};
+    Color weight{0.0f};  ///< 0: no point picked (the ray misses every σ_s > 0)
+    float t = 0.0f;
+    int medium = -1;
+};
+InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max,
+                               Rng& rng, Color* emitted = nullptr);
+
 /// Transmittance exp(−∫σ_t) on (0, t_max), per channel, by residual ratio tracking: the control
 /// part exp(−σ_t ∫ d_min) exactly (all of it in homogeneous media and uniform cells), the residual
 /// by ratio tracking with Russian roulette once its product falls below 0.1 (unbiased, bounded

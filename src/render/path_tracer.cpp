@@ -139,109 +139,146 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
     return sum;
 }
 
+// A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
+// volume map (the path's end->depth()-th medium vertex) or a phase (or guide) sampled direction
+// for p. False: the path ends here.
+bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
+    if (p.depth >= max_depth_) {
+        ++ts.capped;
+        return false;
+    }
+    ++p.depth;
+    const PhaseMix phase(ts.media, x);
+    if (end_ && ++p.medium_vertices == end_->depth()) {
+        // Direct light by a shadow ray, the rest from the map; the path ends here.
+        *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
+        *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
+        return false;
+    }
+    const bool guided = guide_ && p.depth <= guide_->settings().vertices;
+    if (guided) guide_->prepare(x, p.ray.d, phase, ts.neighbors, &ts.lobes);
+    const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
+    *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), lobes}, rng, ts);
+    Vec3 wi;
+    if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
+        wi = guide_->sample(ts.lobes, phase, p.ray.d, rng, &p.prev_pdf);
+        p.beta *= phase.eval(glm::dot(p.ray.d, wi)) / p.prev_pdf;
+    } else {
+        wi = phase.sample(p.ray.d, rng, &p.prev_pdf);  // weight phase/pdf = 1
+    }
+    p.specular = false;
+    p.prev_p = x;
+    p.ray = Ray{x, wi};
+    return survive(p.depth, &p.beta, rng);
+}
+
 Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) const {
-    Color L(0.0f), beta(1.0f);
-    Ray ray = camera_ray;
-    bool specular = true;  // the last vertex was the camera or a specular bounce: no MIS
-    float prev_pdf = 0.0f;
-    Vec3 prev_p = ray.o;
-    int depth = 0, medium_vertices = 0;
-    for (;;) {
+    Path p;
+    p.ray = camera_ray;
+    p.prev_p = camera_ray.o;
+    if (ts.media.empty() || !end_) return trace(p, false, rng, ts);
+    // Paths that end in the map: the camera segment's one ratio-tracking walk gives an
+    // in-scattering point (weight ≈ 1 − T) and the transmittance to what lies behind, and the
+    // path continues from both, instead of delta tracking's either-or (see the header).
+    std::optional<SurfaceHit> hit;
+    float t_max = kInfinity;
+    if (scene_.surfaces) {
+        ++ts.rays;
+        hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
+        if (hit) t_max = hit->t;
+    }
+    Color L(0.0f);
+    const InscatterPick pick =
+        ratio_track_pick(ts.media, p.ray, t_max, rng, emissive_ ? &L : nullptr);
+    if (pick.medium >= 0) {
+        Path m = p;
+        m.beta = pick.weight;
+        if (scatter(m, m.ray.at(pick.t), &L, rng, ts)) L += trace(m, false, rng, ts);
+    }
+    if (max_component(pick.transmittance) > 0.0f) {
+        p.beta = pick.transmittance;
+        L += trace(p, true, rng, ts, &hit);
+    }
+    return L;
+}
+
+Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
+                        const std::optional<SurfaceHit>* first_hit) const {
+    Color L(0.0f);
+    for (bool first = true;; first = false) {
         std::optional<SurfaceHit> hit;
         float t_max = kInfinity;
-        if (scene_.surfaces) {
+        if (first && first_hit) {
+            hit = *first_hit;
+        } else if (scene_.surfaces) {
             ++ts.rays;
-            hit = scene_.surfaces->intersect(ray, 0.0f, kInfinity);
-            if (hit) t_max = hit->t;
+            hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
         }
+        if (hit) t_max = hit->t;
         if (!ts.media.empty()) {
-            if (has_point_lights_ && depth < max_depth_)
-                L += beta * point_lights_in_segment(ray, t_max, rng, ts);
-            Color emitted(0.0f);
-            const TrackResult tr = delta_track(ts.media, ray, t_max, rng, &beta,
-                                               Collision::Weighted, emissive_ ? &emitted : nullptr);
-            L += emitted;
-            if (tr.event == TrackEvent::Absorbed) break;
-            if (tr.event == TrackEvent::Scattered) {
-                if (depth >= max_depth_) {
-                    ++ts.capped;
-                    break;
+            if (has_point_lights_ && p.depth < max_depth_)
+                L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
+            if (!(first && first_tracked)) {
+                Color emitted(0.0f);
+                const TrackResult tr =
+                    delta_track(ts.media, p.ray, t_max, rng, &p.beta, Collision::Weighted,
+                                emissive_ ? &emitted : nullptr);
+                L += emitted;
+                if (tr.event == TrackEvent::Absorbed) break;
+                if (tr.event == TrackEvent::Scattered) {
+                    if (!scatter(p, p.ray.at(tr.t), &L, rng, ts)) break;
+                    continue;
                 }
-                ++depth;
-                const Vec3 x = ray.at(tr.t);
-                const PhaseMix phase(ts.media, x);
-                if (end_ && ++medium_vertices == end_->depth()) {
-                    // Direct light by a shadow ray, the rest from the map; the path ends here.
-                    L += beta *
-                         direct_light(x, Lobe{&phase, ray.d, Color(0.0f), nullptr, true}, rng, ts);
-                    L += beta * end_->inscattered(x, ray.d, phase, ts.neighbors);
-                    break;
-                }
-                const bool guided = guide_ && depth <= guide_->settings().vertices;
-                if (guided) guide_->prepare(x, ray.d, phase, ts.neighbors, &ts.lobes);
-                const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
-                L += beta * direct_light(x, Lobe{&phase, ray.d, Color(0.0f), lobes}, rng, ts);
-                Vec3 wi;
-                if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
-                    wi = guide_->sample(ts.lobes, phase, ray.d, rng, &prev_pdf);
-                    beta *= phase.eval(glm::dot(ray.d, wi)) / prev_pdf;
-                } else {
-                    wi = phase.sample(ray.d, rng, &prev_pdf);  // weight phase/pdf = 1
-                }
-                specular = false;
-                prev_p = x;
-                ray = Ray{x, wi};
-                if (!survive(depth, &beta, rng)) break;
-                continue;
             }
         }
         if (!hit) {
             for (const Light& light : scene_.lights) {
                 if (!light.is_infinite()) continue;
-                const Color Le = escaped_radiance(light, ray.d);
+                const Color Le = escaped_radiance(light, p.ray.d);
                 if (max_component(Le) <= 0.0f) continue;
                 const float w =
-                    specular
-                        ? 1.0f
-                        : power_heuristic(prev_pdf, light_pdf(light, prev_p, ray.d, kInfinity));
-                L += beta * Le * w;
+                    p.specular ? 1.0f
+                               : power_heuristic(p.prev_pdf,
+                                                 light_pdf(light, p.prev_p, p.ray.d, kInfinity));
+                L += p.beta * Le * w;
             }
             break;
         }
         if (hit->light >= 0) {  // quad lights are black emitters
             const Light& light = scene_.lights[hit->light];
-            const Color Le = quad_radiance(light, ray.d);
+            const Color Le = quad_radiance(light, p.ray.d);
             const float w =
-                specular ? 1.0f
-                         : power_heuristic(prev_pdf, light_pdf(light, prev_p, ray.d, hit->t));
-            L += beta * Le * w;
+                p.specular
+                    ? 1.0f
+                    : power_heuristic(p.prev_pdf, light_pdf(light, p.prev_p, p.ray.d, hit->t));
+            L += p.beta * Le * w;
             break;
         }
         if (hit->material < 0) break;
-        if (depth >= max_depth_) {
+        if (p.depth >= max_depth_) {
             ++ts.capped;
             break;
         }
-        ++depth;
+        ++p.depth;
         const Material& mat = scene_.materials[hit->material];
-        const Vec3 n = glm::dot(ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the ray
+        const Vec3 n = glm::dot(p.ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the ray
         const Vec2 u(rng.uniform(), rng.uniform());
         if (mat.is_specular()) {
-            const SpecularScatter sc = scatter_specular(mat, ray.d, hit->p, hit->ng, u.x,
+            const SpecularScatter sc = scatter_specular(mat, p.ray.d, hit->p, hit->ng, u.x,
                                                         Transport::Radiance, scene_.offset_floor);
-            beta *= sc.weight;
-            ray = sc.ray;
-            specular = true;
+            p.beta *= sc.weight;
+            p.ray = sc.ray;
+            p.specular = true;
         } else {
-            L += beta * direct_light(hit->p, Lobe{nullptr, n, mat.albedo}, rng, ts);
+            L += p.beta * direct_light(hit->p, Lobe{nullptr, n, mat.albedo}, rng, ts);
             const Vec3 wi = sample_cosine_hemisphere(n, u);
-            prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
-            beta *= mat.albedo;  // f cos / pdf = albedo
-            specular = false;
-            ray = Ray{offset(hit->p, n), wi};
+            p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+            p.beta *= mat.albedo;  // f cos / pdf = albedo
+            p.specular = false;
+            p.ray = Ray{offset(hit->p, n), wi};
         }
-        prev_p = hit->p;
-        if (!survive(depth, &beta, rng)) break;
+        p.prev_p = hit->p;
+        if (!survive(p.depth, &p.beta, rng)) break;
     }
     return L;
 }

@@ -7,7 +7,13 @@
 // max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
 // segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track).
 // With a VolumeMapEnd (the photon integrator's volume.gather_depth), paths end at their D-th medium
-// vertex in the volume map instead (render/volume_map_end.h).
+// vertex in the volume map instead (render/volume_map_end.h), and the camera segment is not
+// delta-tracked: one ratio-tracking walk picks an in-scattering point ∝ T σ_s (media/medium.h,
+// ratio_track_pick) and the path continues from it with weight ≈ 1 − T *and* from the surface or
+// sky behind with the walk's transmittance. That removes the camera ray's scatter-or-pass-through
+// coin (smoke.json, D 3: relMSE −13% at equal time, smoke1 over a 10 km ground −11%, the Disney
+// cloud −2%); the plain path tracer keeps delta tracking (the two branches cost it 15% time for
+// 7% less error).
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
@@ -17,6 +23,7 @@
 #include "scene/scene.h"
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace fogmap {
@@ -43,6 +50,18 @@ public:
 
 private:
     struct Lobe;
+    /// A camera path's state between vertices.
+    struct Path {
+        Ray ray;
+        Color beta{1.0f};
+        bool specular = true;  ///< the last vertex was the camera or a specular bounce: no MIS
+        float prev_pdf = 0.0f;
+        Vec3 prev_p{0.0f};
+        int depth = 0, medium_vertices = 0;
+    };
+    bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
+    Color trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
+                const std::optional<SurfaceHit>* first_hit = nullptr) const;
     Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
     Color point_lights_in_segment(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Vec3 offset(const Vec3& p, const Vec3& n) const;
@@ -52,7 +71,8 @@ private:
     const VolumeGuide* guide_;
     const VolumeMapEnd* end_;
     bool has_point_lights_ = false;
-    bool emissive_ = false;  ///< some medium emits: camera paths collect σ_a L_e
+    bool emissive_ = false;
+    bool camera_pick_ = false;  ///< some medium emits: camera paths collect σ_a L_e
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,

@@ -126,6 +126,58 @@ TEST(RatioTracking, OverlappingMediaMultiply) {
     EXPECT_NEAR(e.mean, std::exp(-1.0 * 2.0 - 0.75 * 2.0), 1e-6 * e.mean);
 }
 
+// The camera segment's walk (ratio_track_pick) against quadrature of the closed forms, per
+// channel, through two overlapping chromatic media: E[weight] = ∫ σ_s T dt, E[weight t] =
+// ∫ σ_s T t dt, E[weight; medium b] = ∫ σ_s,b T dt, E[transmittance] = T(end). Channels with
+// different σ_t make the ratio-tracking product chromatic, and the pick ∝ average(a) must still
+// weight each channel right.
+TEST(RatioTrackPick, WeightsIntegrateInscatteringAndTransmittance) {
+    const Color sa_s(1.0f, 0.5f, 0.2f), sa_a(0.1f), sb_s(0.5f), sb_a(0.25f, 0.5f, 1.0f);
+    const Medium a =
+        Medium::homogeneous({sa_s, sa_a, 0.0f}, Box3{Vec3(0.0f), Vec3(2.0f, 1.0f, 1.0f)});
+    const Medium b = Medium::homogeneous({sb_s, sb_a, 0.0f},
+                                         Box3{Vec3(1.0f, 0.0f, 0.0f), Vec3(3.0f, 1.0f, 1.0f)});
+    std::vector<Medium::Sampler> media = samplers({&a, &b});
+    const Ray ray{Vec3(-1.0f, 0.5f, 0.5f), Vec3(1.0f, 0.0f, 0.0f)};
+    const float t_max = 3.5f;  // ends inside b: x = 2.5
+    // Quadrature (midpoint rule, 200 000 steps) of the closed forms along x = t − 1.
+    const auto in = [](double x, double lo, double hi) { return x >= lo && x < hi ? 1.0 : 0.0; };
+    for (int c = 0; c < 3; ++c) {
+        double w = 0.0, wt = 0.0, wb = 0.0, tau = 0.0;
+        const int steps = 200000;
+        const double dt = t_max / steps;
+        for (int i = 0; i < steps; ++i) {
+            const double t = (i + 0.5) * dt, x = t - 1.0;
+            const double ia = in(x, 0.0, 2.0), ib = in(x, 1.0, 3.0);
+            const double s = ia * sa_s[c] + ib * sb_s[c];
+            const double st = s + ia * sa_a[c] + ib * sb_a[c];
+            const double T = std::exp(-(tau + 0.5 * st * dt));
+            w += s * T * dt;
+            wt += s * T * t * dt;
+            wb += ib * sb_s[c] * T * dt;
+            tau += st * dt;
+        }
+        const auto check = [&](double expected, auto&& f, const char* what) {
+            const MeanEstimate e = estimate(100000, [&](int i) {
+                Rng rng(13, i);
+                return f(ratio_track_pick(media, ray, t_max, rng));
+            });
+            EXPECT_NEAR(e.mean, expected, 4.0 * e.standard_error + 1e-6)
+                << what << ", channel " << c;
+        };
+        check(
+            w, [&](const InscatterPick& p) { return p.weight[c]; }, "weight");
+        check(
+            wt, [&](const InscatterPick& p) { return p.weight[c] * p.t; }, "weight t");
+        check(
+            wb, [&](const InscatterPick& p) { return p.medium == 1 ? p.weight[c] : 0.0f; },
+            "weight in b");
+        check(
+            std::exp(-tau), [&](const InscatterPick& p) { return p.transmittance[c]; },
+            "transmittance");
+    }
+}
+
 // Constant-density VDB cube of n voxels: trilinear sampling ramps the density from 0 at index −1
 // to 1 at index 0 (and down again from n−1 to n), so the optical depth along a line through voxel
 // centres is σ_t · n · voxel_size — as if the density filled the voxel faces exactly.
