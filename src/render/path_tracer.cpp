@@ -115,7 +115,18 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         // starts (else the light itself can sit inside the margin).
         const Vec3 origin = lobe.phase ? x : offset(x, lobe.dir);
         const Vec2 u(rng.uniform(), rng.uniform());
-        const LightSample s = sample_light(light, origin, u);
+        LightSample s;
+        if (light.type == LightType::Environment) {  // constant: sampled by the lobe
+            s.Li = light.radiance;
+            if (lobe.phase) {
+                s.wi = lobe.phase->sample(lobe.dir, rng, &s.pdf);
+            } else {
+                s.wi = sample_cosine_hemisphere(lobe.dir, u);
+                s.pdf = std::max(glm::dot(lobe.dir, s.wi), 0.0f) * kInvPi;
+            }
+        } else {
+            s = sample_light(light, origin, u);
+        }
         if (s.pdf <= 0.0f || max_component(s.Li) <= 0.0f) continue;
 
         Color f;
@@ -162,9 +173,11 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     Vec3 wi;
     if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
         wi = guide_->sample(ts.lobes, phase, p.ray.d, rng, &p.prev_pdf);
-        p.beta *= phase.eval(glm::dot(p.ray.d, wi)) / p.prev_pdf;
+        p.env_pdf = phase.eval(glm::dot(p.ray.d, wi));
+        p.beta *= p.env_pdf / p.prev_pdf;
     } else {
         wi = phase.sample(p.ray.d, rng, &p.prev_pdf);  // weight phase/pdf = 1
+        p.env_pdf = p.prev_pdf;
     }
     p.specular = false;
     p.prev_p = x;
@@ -236,10 +249,11 @@ Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
                 if (!light.is_infinite()) continue;
                 const Color Le = escaped_radiance(light, p.ray.d);
                 if (max_component(Le) <= 0.0f) continue;
-                const float w =
-                    p.specular ? 1.0f
-                               : power_heuristic(p.prev_pdf,
-                                                 light_pdf(light, p.prev_p, p.ray.d, kInfinity));
+                // The environment's light sample had the lobe's own pdf (direct_light).
+                const float light_p = light.type == LightType::Environment
+                                          ? p.env_pdf
+                                          : light_pdf(light, p.prev_p, p.ray.d, kInfinity);
+                const float w = p.specular ? 1.0f : power_heuristic(p.prev_pdf, light_p);
                 L += p.beta * Le * w;
             }
             break;
@@ -272,7 +286,7 @@ Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
         } else {
             L += p.beta * direct_light(hit->p, Lobe{nullptr, n, mat.albedo}, rng, ts);
             const Vec3 wi = sample_cosine_hemisphere(n, u);
-            p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+            p.prev_pdf = p.env_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
             p.beta *= mat.albedo;  // f cos / pdf = albedo
             p.specular = false;
             p.ray = Ray{offset(hit->p, n), wi};
