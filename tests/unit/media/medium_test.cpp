@@ -178,6 +178,31 @@ TEST(RatioTrackPick, WeightsIntegrateInscatteringAndTransmittance) {
     }
 }
 
+// The walk's emission estimate, Σ T_i σ_a L_e / μ_i over the tentative collisions, against the
+// closed form ∫ T σ_a L_e dt = L_e σ_a/σ_t (1 − e^{−σ_t d}) of a homogeneous emitting slab, per
+// channel.
+TEST(RatioTrackPick, EmissionIntegratesAlongTheRay) {
+    const Color sigma_s(0.5f), sigma_a(2.0f, 1.0f, 0.5f), Le(1.0f, 2.0f, 3.0f);
+    const float d = 0.75f;
+    Medium m = Medium::homogeneous({sigma_s, sigma_a, 0.0f}, Box3{Vec3(0.0f), Vec3(d, 1.0f, 1.0f)});
+    EmissionParams e;
+    e.color = Le;
+    m.set_emission(Emission::constant(e), Mat4(1.0f));
+    std::vector<Medium::Sampler> media = samplers({&m});
+    const Ray ray{Vec3(-1.0f, 0.5f, 0.5f), Vec3(1.0f, 0.0f, 0.0f)};
+    for (int c = 0; c < 3; ++c) {
+        const MeanEstimate est = estimate(40000, [&](int i) {
+            Rng rng(17, i);
+            Color emitted(0.0f);
+            ratio_track_pick(media, ray, kInfinity, rng, &emitted);
+            return emitted[c];
+        });
+        const double st = double(sigma_s[c]) + sigma_a[c];
+        const double want = Le[c] * sigma_a[c] / st * -std::expm1(-st * d);
+        EXPECT_NEAR(est.mean, want, 4.0 * est.standard_error + 1e-6) << "channel " << c;
+    }
+}
+
 // Constant-density VDB cube of n voxels: trilinear sampling ramps the density from 0 at index −1
 // to 1 at index 0 (and down again from n−1 to n), so the optical depth along a line through voxel
 // centres is σ_t · n · voxel_size — as if the density filled the voxel faces exactly.
