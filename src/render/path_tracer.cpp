@@ -116,14 +116,9 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         const Vec3 origin = lobe.phase ? x : offset(x, lobe.dir);
         const Vec2 u(rng.uniform(), rng.uniform());
         LightSample s;
-        if (light.type == LightType::Environment) {  // constant: sampled by the lobe
+        if (light.type == LightType::Environment && lobe.phase) {  // constant: by the phase
             s.Li = light.radiance;
-            if (lobe.phase) {
-                s.wi = lobe.phase->sample(lobe.dir, rng, &s.pdf);
-            } else {
-                s.wi = sample_cosine_hemisphere(lobe.dir, u);
-                s.pdf = std::max(glm::dot(lobe.dir, s.wi), 0.0f) * kInvPi;
-            }
+            s.wi = lobe.phase->sample(lobe.dir, rng, &s.pdf);
         } else {
             s = sample_light(light, origin, u);
         }
@@ -286,7 +281,8 @@ Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
         } else {
             L += p.beta * direct_light(hit->p, Lobe{nullptr, n, mat.albedo}, rng, ts);
             const Vec3 wi = sample_cosine_hemisphere(n, u);
-            p.prev_pdf = p.env_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+            p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+            p.env_pdf = kInvFourPi;  // the environment's uniform light sample
             p.beta *= mat.albedo;  // f cos / pdf = albedo
             p.specular = false;
             p.ray = Ray{offset(hit->p, n), wi};
