@@ -185,9 +185,13 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
     p.ray = camera_ray;
     p.prev_p = camera_ray.o;
     if (ts.media.empty() || !end_) return trace(p, false, rng, ts);
-    // Paths that end in the map: the camera segment's one ratio-tracking walk gives an
-    // in-scattering point (weight ≈ 1 − T) and the transmittance to what lies behind, and the
-    // path continues from both, instead of delta tracking's either-or (see the header).
+    return pick_segment(p, rng, ts);
+}
+
+// Paths that end in the map: the segment's one ratio-tracking walk gives an in-scattering point
+// (weight ≈ 1 − T) and the transmittance to what lies behind, and the path continues from both,
+// instead of delta tracking's either-or (see the header).
+Color PathTracer::pick_segment(Path p, Rng& rng, ThreadState& ts) const {
     std::optional<SurfaceHit> hit;
     float t_max = kInfinity;
     if (scene_.surfaces) {
@@ -195,16 +199,19 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
         hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
         if (hit) t_max = hit->t;
     }
-    Color L(0.0f);
+    Color L(0.0f), emitted(0.0f);
+    if (has_point_lights_ && p.depth < max_depth_)
+        L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
     const InscatterPick pick =
-        ratio_track_pick(ts.media, p.ray, t_max, rng, emissive_ ? &L : nullptr);
+        ratio_track_pick(ts.media, p.ray, t_max, rng, emissive_ ? &emitted : nullptr);
+    L += p.beta * emitted;
     if (pick.medium >= 0) {
         Path m = p;
-        m.beta = pick.weight;
+        m.beta = p.beta * pick.weight;
         if (scatter(m, m.ray.at(pick.t), &L, rng, ts)) L += trace(m, false, rng, ts);
     }
     if (max_component(pick.transmittance) > 0.0f) {
-        p.beta = pick.transmittance;
+        p.beta *= pick.transmittance;
         L += trace(p, true, rng, ts, &hit);
     }
     return L;
@@ -223,20 +230,17 @@ Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
             hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
         }
         if (hit) t_max = hit->t;
-        if (!ts.media.empty()) {
+        if (!ts.media.empty() && !(first && first_tracked)) {  // else done by pick_segment
             if (has_point_lights_ && p.depth < max_depth_)
                 L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
-            if (!(first && first_tracked)) {
-                Color emitted(0.0f);
-                const TrackResult tr =
-                    delta_track(ts.media, p.ray, t_max, rng, &p.beta, Collision::Weighted,
-                                emissive_ ? &emitted : nullptr);
-                L += emitted;
-                if (tr.event == TrackEvent::Absorbed) break;
-                if (tr.event == TrackEvent::Scattered) {
-                    if (!scatter(p, p.ray.at(tr.t), &L, rng, ts)) break;
-                    continue;
-                }
+            Color emitted(0.0f);
+            const TrackResult tr = delta_track(ts.media, p.ray, t_max, rng, &p.beta,
+                                               Collision::Weighted, emissive_ ? &emitted : nullptr);
+            L += emitted;
+            if (tr.event == TrackEvent::Absorbed) break;
+            if (tr.event == TrackEvent::Scattered) {
+                if (!scatter(p, p.ray.at(tr.t), &L, rng, ts)) break;
+                continue;
             }
         }
         if (!hit) {

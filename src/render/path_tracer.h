@@ -64,7 +64,14 @@ private:
         Vec3 prev_p{0.0f};
         int depth = 0, medium_vertices = 0;
     };
+    /// The path's next segment by ratio_track_pick: both the picked medium vertex and what lies
+    /// behind (the point lights' segment estimate and the media's emission included).
+    Color pick_segment(Path p, Rng& rng, ThreadState& ts) const;
+    /// A medium vertex at x: direct light, then the map (the path ends: false) or a new
+    /// direction for p (false when Russian roulette ends it).
     bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
+    /// The rest of path p; first_tracked: its first segment's media were done by pick_segment
+    /// (whose surface hit is *first_hit).
     Color trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
                 const std::optional<SurfaceHit>* first_hit = nullptr) const;
     Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
