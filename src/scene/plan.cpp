@@ -98,7 +98,8 @@ PlanItem plan_marching(const SceneDesc& desc) {
     if (desc.volume.gather_depth > 0)
         return on(count(desc.media.size(), "medium", "media") + "; photon free paths " +
                   (desc.march.method == FreePathMethod::March ? "march" : "use delta tracking") +
-                  ", camera paths use delta tracking and end in the volume map");
+                  ", camera paths use ratio tracking (first segment) and delta tracking and "
+                  "end in the volume map");
     if (desc.volume.estimator == VolumeEstimator::PhotonBeams)
         return on(count(desc.media.size(), "medium", "media") +
                   "; camera rays march, photon free paths use delta tracking (photon beams)");

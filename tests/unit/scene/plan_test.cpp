@@ -277,8 +277,8 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     doc["volume"] = json{{"gather_depth", 2}};
     const Plan p = make_plan(scene(doc));
     EXPECT_EQ(line(p, kMarching),
-              "ray marching: used (1 medium; photon free paths march, camera paths use delta "
-              "tracking and end in the volume map)");
+              "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
+              "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
               "in it at medium vertex 2)");
