@@ -330,21 +330,31 @@ bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
     }
 }
 
-TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
-                        Color* beta, Collision collision, Color* emitted) {
-    const int n = static_cast<int>(media.size());
+MergedWalks::MergedWalks(std::vector<Medium::Sampler>& media, const Ray& ray, float t0, float t1,
+                         Rng& rng)
+    : n(static_cast<int>(media.size())) {
     FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
-    std::array<float, kMaxMedia> t_next, mu;
     for (int i = 0; i < n; ++i) {
         t_next[i] = kInfinity;
-        if (media[i].begin_walk(ray, 0.0f, t_max) &&
-            !media[i].next_tentative(rng, &t_next[i], &mu[i]))
+        if (media[i].begin_walk(ray, t0, t1) && !media[i].next_tentative(rng, &t_next[i], &mu[i]))
             t_next[i] = kInfinity;
     }
+}
+
+int MergedWalks::next() const {
+    int i = -1;
+    for (int k = 0; k < n; ++k)
+        if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+    return i;
+}
+
+TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng,
+                        Color* beta, Collision collision, Color* emitted) {
+    MergedWalks w(media, ray, 0.0f, t_max, rng);
+    auto& t_next = w.t_next;
+    auto& mu = w.mu;
     for (;;) {
-        int i = -1;
-        for (int k = 0; k < n; ++k)
-            if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+        const int i = w.next();
         if (i < 0) return {};
         const float t = t_next[i];
         const MediumParams& p = media[i].medium().params();
@@ -383,23 +393,15 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
 
 InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max,
                                Rng& rng, Color* emitted) {
-    const int n = static_cast<int>(media.size());
-    FOGMAP_ASSERT(n <= kMaxMedia, "too many media");
-    std::array<float, kMaxMedia> t_next, mu;
-    for (int i = 0; i < n; ++i) {
-        t_next[i] = kInfinity;
-        if (media[i].begin_walk(ray, 0.0f, t_max) &&
-            !media[i].next_tentative(rng, &t_next[i], &mu[i]))
-            t_next[i] = kInfinity;
-    }
+    MergedWalks w(media, ray, 0.0f, t_max, rng);
+    auto& t_next = w.t_next;
+    auto& mu = w.mu;
     InscatterPick pick;
     Color& T = pick.transmittance;
     Color a_pick(0.0f);
     float sum = 0.0f;  // Σ average(a_j)
     for (;;) {
-        int i = -1;
-        for (int k = 0; k < n; ++k)
-            if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+        const int i = w.next();
         if (i < 0) break;
         const float t = t_next[i], m = mu[i];
         const MediumParams& p = media[i].medium().params();

@@ -18,6 +18,7 @@
 #include "media/density_grid.h"
 #include "media/emission.h"
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -170,6 +171,18 @@ enum class Collision {
     Analog,    ///< absorb with probability σ_a/σ_t (photons: power stays constant)
     Weighted,  ///< always scatter, *beta multiplied by the albedo σ_s/σ_t (camera paths, which
                ///< end by the caller's Russian roulette on the throughput)
+};
+
+/// The tentative-collision walks of every medium along one ray on (t0, t1), merged in distance
+/// order (delta tracking, the camera segment's walk, the photon march's delta-tracked paths):
+/// next() is the medium whose collision comes first; the caller advances that one's walk.
+struct MergedWalks {
+    std::array<float, kMaxMedia> t_next, mu;  ///< each medium's next collision (kInfinity: none)
+                                              ///< and the majorant there
+    int n;
+    MergedWalks(std::vector<Medium::Sampler>& media, const Ray& ray, float t0, float t1, Rng& rng);
+    /// The medium whose next tentative collision comes first; -1 when every walk has ended.
+    int next() const;
 };
 
 /// Weighted delta tracking through all media on (0, t_max) of a unit-direction ray. Multiplies

@@ -90,18 +90,11 @@ void delta_free_path(std::vector<Medium::Sampler>& samplers, const std::vector<M
                      const Ray& ray, float t0, float t1, float h0, Rng& rng,
                      RayMarcher::FreePath* fp) {
     constexpr int kMaxNullCollisions = 128;
-    const int n = static_cast<int>(samplers.size());
-    std::array<float, kMaxMedia> t_next, mu;
-    for (int i = 0; i < n; ++i) {
-        t_next[i] = kInfinity;
-        if (samplers[i].begin_walk(ray, t0, t1) &&
-            !samplers[i].next_tentative(rng, &t_next[i], &mu[i]))
-            t_next[i] = kInfinity;
-    }
+    MergedWalks w(samplers, ray, t0, t1, rng);
+    auto& t_next = w.t_next;
+    auto& mu = w.mu;
     for (int nulls = 0;; ++nulls) {
-        int i = -1;
-        for (int k = 0; k < n; ++k)
-            if (t_next[k] < kInfinity && (i < 0 || t_next[k] < t_next[i])) i = k;
+        const int i = w.next();
         if (i < 0) return;
         const float t = t_next[i];
         if (nulls == kMaxNullCollisions) {
