@@ -184,7 +184,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts) con
     Path p;
     p.ray = camera_ray;
     p.prev_p = camera_ray.o;
-    if (ts.media.empty() || !end_) return trace(p, false, rng, ts);
+    if (ts.media.empty() || !end_) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
 }
 
@@ -208,16 +208,16 @@ Color PathTracer::pick_segment(Path p, Rng& rng, ThreadState& ts) const {
     if (pick.medium >= 0) {
         Path m = p;
         m.beta = p.beta * pick.weight;
-        if (scatter(m, m.ray.at(pick.t), &L, rng, ts)) L += trace(m, false, rng, ts);
+        if (scatter(m, m.ray.at(pick.t), &L, rng, ts)) L += trace(m, rng, ts);
     }
     if (max_component(pick.transmittance) > 0.0f) {
         p.beta *= pick.transmittance;
-        L += trace(p, true, rng, ts, &hit);
+        L += trace(p, rng, ts, &hit);
     }
     return L;
 }
 
-Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
+Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
                         const std::optional<SurfaceHit>* first_hit) const {
     Color L(0.0f);
     for (bool first = true;; first = false) {
@@ -230,7 +230,7 @@ Color PathTracer::trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
             hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
         }
         if (hit) t_max = hit->t;
-        if (!ts.media.empty() && !(first && first_tracked)) {  // else done by pick_segment
+        if (!ts.media.empty() && !(first && first_hit)) {  // else done by pick_segment
             if (has_point_lights_ && p.depth < max_depth_)
                 L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
             Color emitted(0.0f);

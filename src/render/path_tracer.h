@@ -70,9 +70,9 @@ private:
     /// A medium vertex at x: direct light, then the map (the path ends: false) or a new
     /// direction for p (false when Russian roulette ends it).
     bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
-    /// The rest of path p; first_tracked: its first segment's media were done by pick_segment
-    /// (whose surface hit is *first_hit).
-    Color trace(Path p, bool first_tracked, Rng& rng, ThreadState& ts,
+    /// The rest of path p; with first_hit, its first segment's surface hit and media were done
+    /// by pick_segment.
+    Color trace(Path p, Rng& rng, ThreadState& ts,
                 const std::optional<SurfaceHit>* first_hit = nullptr) const;
     Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
     Color point_lights_in_segment(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;

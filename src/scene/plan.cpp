@@ -199,7 +199,7 @@ SceneDesc choose_integrator(SceneDesc desc) {
                 : "auto: media under sun, sky or area lights; camera paths that end in the volume "
                   "map at medium vertex " +
                       std::to_string(desc.volume.gather_depth) +
-                      " measured 1.1-2.9x lower error than the path tracer at equal time "
+                      " measured 1.3-4x lower error than the path tracer at equal time "
                       "(smoke.json, smoke1 and the Disney cloud over a 10 km ground)";
     } else {
         desc.render.integrator = Integrator::Path;
