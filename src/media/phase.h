@@ -12,6 +12,7 @@
 #include "media/medium.h"
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace fogmap {
@@ -28,7 +29,7 @@ public:
     PhaseMix(std::vector<Medium::Sampler>& samplers, const Vec3& x) {
         if (samplers.size() == 1) {
             g_[0] = samplers[0].medium().params().g;
-            w_[0] = 1.0f;
+            w_[0] = total_ = 1.0f;
             n_ = 1;
             return;
         }
@@ -52,6 +53,14 @@ public:
         if (n_ == 1) return hg_phase(cos_theta, g_[0]);
         float sum = 0.0f;
         for (int i = 0; i < n_; ++i) sum += w_[i] * hg_phase(cos_theta, g_[i]);
+        return sum / total_;
+    }
+
+    /// The l-th coefficient of the mixture's Legendre series p = Σ_l (2l + 1) / (4π) a_l P_l(cos
+    /// θ): a_l = Σ_i w_i g_i^l / Σ_i w_i (Henyey–Greenstein's are g^l).
+    float legendre(int l) const {
+        float sum = 0.0f;
+        for (int i = 0; i < n_; ++i) sum += w_[i] * std::pow(g_[i], float(l));
         return sum / total_;
     }
 

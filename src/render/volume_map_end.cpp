@@ -52,38 +52,127 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
     }
 }
 
-Color KernelDensity::at(const Vec3& x) const {
-    if (values_.empty()) return Color(0.0f);
+bool KernelDensity::corners(const Vec3& x, Corners* out) const {
+    if (values_.empty()) return false;
     const Vec3 u = (x - origin_) / cell_;
     int c[3];
     float f[3];
     for (int a = 0; a < 3; ++a) {
-        if (!(u[a] >= 0.0f) || u[a] >= float(dims_[a] - 1)) return Color(0.0f);
+        if (!(u[a] >= 0.0f) || u[a] >= float(dims_[a] - 1)) return false;
         c[a] = static_cast<int>(u[a]);
         f[a] = u[a] - float(c[a]);
     }
     const size_t nx = dims_[0], ny = dims_[1];
+    for (int n = 0; n < 8; ++n) {
+        const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
+        out->weight[n] =
+            (dx ? f[0] : 1.0f - f[0]) * (dy ? f[1] : 1.0f - f[1]) * (dz ? f[2] : 1.0f - f[2]);
+        out->node[n] = ((c[2] + dz) * ny + c[1] + dy) * nx + c[0] + dx;
+    }
+    return true;
+}
+
+Color KernelDensity::at(const Vec3& x) const {
+    Corners c;
+    if (!corners(x, &c)) return Color(0.0f);
     Color s(0.0f);
-    for (int dz = 0; dz < 2; ++dz)
-        for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-                const float w = (dx ? f[0] : 1.0f - f[0]) * (dy ? f[1] : 1.0f - f[1]) *
-                                (dz ? f[2] : 1.0f - f[2]);
-                s += w * values_[((c[2] + dz) * ny + c[1] + dy) * nx + c[0] + dx];
-            }
+    for (int n = 0; n < 8; ++n) s += c.weight[n] * values_[c.node[n]];
     return s;
+}
+
+Vec3 KernelDensity::node_position(size_t n) const {
+    const size_t nx = dims_[0], ny = dims_[1];
+    return origin_ + cell_ * Vec3(float(n % nx), float((n / nx) % ny), float(n / (nx * ny)));
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
                            int depth)
-    : map_(map), radius_(radius), depth_(depth), density_(media, radius) {}
+    : map_(map), radius_(radius), depth_(depth), density_(media, radius) {
+    bool mild = true;
+    for (const Medium& m : media) mild = mild && std::abs(m.params().g) <= kMaxMomentG;
+    if (!mild || density_.nodes() == 0 || density_.cell() > 0.6f * radius) return;
+    std::vector<size_t> nodes;
+    for (size_t n = 0; n < density_.nodes(); ++n)
+        if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
+    if (nodes.size() > kMaxMomentNodes) return;
+    slot_.assign(density_.nodes(), -1);
+    for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
+    moments_.resize(nodes.size());
+    // Each photon adds to the grid points within r of it. Per layer of grid points (z), its
+    // photons in the map's order: each point's sums are the same whatever the thread count.
+    const std::array<int, 3> dims = density_.dims();
+    const Vec3 origin = density_.node_position(0);
+    const float cell = density_.cell(), r2 = radius * radius;
+    const std::vector<Photon>& photons = map.tree.records();
+    const auto range = [&](float v, int a, int* lo, int* hi) {  // grid points within r of v
+        *lo = std::max(0, static_cast<int>(std::ceil((v - radius - origin[a]) / cell)));
+        *hi = std::min(dims[a] - 1, static_cast<int>(std::floor((v + radius - origin[a]) / cell)));
+        return *lo <= *hi;
+    };
+    std::vector<std::vector<uint32_t>> layers(dims[2]);
+    for (uint32_t n = 0; n < photons.size(); ++n) {
+        int lo, hi;
+        if (range(photons[n].position().z, 2, &lo, &hi))
+            for (int k = lo; k <= hi; ++k) layers[k].push_back(n);
+    }
+    tbb::parallel_for(0, dims[2], [&](int k) {
+        for (const uint32_t n : layers[k]) {
+            const Photon& p = photons[n];
+            int i0, i1, j0, j1;
+            if (!range(p.position().x, 0, &i0, &i1) || !range(p.position().y, 1, &j0, &j1))
+                continue;
+            const Color c = p.power();
+            const Vec3 w = p.direction();
+            const std::array<Color, 3> m1{w.x * c, w.y * c, w.z * c};
+            const std::array<Color, 6> m2{w.x * m1[0], w.y * m1[1], w.z * m1[2],
+                                          w.y * m1[0], w.z * m1[0], w.z * m1[1]};
+            for (int j = j0; j <= j1; ++j)
+                for (int i = i0; i <= i1; ++i) {
+                    const size_t node = (size_t(k) * dims[1] + j) * dims[0] + i;
+                    const int32_t s = slot_[node];
+                    const Vec3 d = density_.node_position(node) - p.position();
+                    if (s < 0 || glm::dot(d, d) > r2) continue;
+                    Moments& m = moments_[s];
+                    m.m0 += c;
+                    for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
+                    for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
+                }
+        }
+    });
+}
 
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                                 NeighborList& scratch) const {
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
-    const Color collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
-    if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
-    const Color density = density_.at(x);
+    Color collisions(0.0f), density(0.0f);
+    if (interpolates()) {
+        KernelDensity::Corners c;
+        if (!density_.corners(x, &c)) return Color(0.0f);
+        Moments m;
+        for (int n = 0; n < 8; ++n) {
+            density += c.weight[n] * density_.node_value(c.node[n]);
+            const int32_t s = slot_[c.node[n]];
+            if (s < 0) continue;
+            const Moments& q = moments_[s];
+            const float w = c.weight[n];
+            m.m0 += w * q.m0;
+            for (int a = 0; a < 3; ++a) m.m1[a] += w * q.m1[a];
+            for (int a = 0; a < 6; ++a) m.m2[a] += w * q.m2[a];
+        }
+        // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
+        const Vec3 o = -dir;
+        const Color s1 = o.x * m.m1[0] + o.y * m.m1[1] + o.z * m.m1[2];
+        const Color s2 = o.x * o.x * m.m2[0] + o.y * o.y * m.m2[1] + o.z * o.z * m.m2[2] +
+                         2.0f * (o.x * o.y * m.m2[3] + o.x * o.z * m.m2[4] + o.y * o.z * m.m2[5]);
+        const float a1 = phase.legendre(1), a2 = phase.legendre(2);
+        const Color sum = m.m0 + 3.0f * a1 * s1 + 2.5f * a2 * (3.0f * s2 - m.m0);
+        const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
+        collisions = glm::max(sum, Color(0.0f)) * (map_.photon_power * kInvFourPi / volume);
+    } else {
+        collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
+        if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
+        density = density_.at(x);
+    }
     Color out(0.0f);
     for (int c = 0; c < 3; ++c)
         if (density[c] > 0.0f) out[c] = collisions[c] / density[c];

@@ -38,6 +38,19 @@ public:
     /// σ̄_s at world point x, per channel (1/world unit); 0 beyond the grid.
     Color at(const Vec3& x) const;
 
+    /// Trilinear interpolation at x: the 8 surrounding grid points and their weights.
+    struct Corners {
+        std::array<size_t, 8> node;
+        std::array<float, 8> weight;
+    };
+    /// False beyond the grid (or when it is empty).
+    bool corners(const Vec3& x, Corners* c) const;
+    size_t nodes() const { return values_.size(); }
+    Vec3 node_position(size_t n) const;
+    const Color& node_value(size_t n) const { return values_[n]; }
+    float cell() const { return cell_; }
+    const std::array<int, 3>& dims() const { return dims_; }
+
 private:
     Vec3 origin_{0.0f};
     float cell_ = 1.0f;
@@ -57,11 +70,39 @@ public:
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                       NeighborList& scratch) const;
 
+    /// Lookups interpolate the photons' directional moments (see the class comment below).
+    bool interpolates() const { return !slot_.empty(); }
+
+    /// Where the moments are kept: every medium's |g| at most this (the phase's Legendre series
+    /// cut after l = 2 then misses at most Σ_{l≥3} (2l+1) (g g_p)^l / 4π of a photon field with
+    /// Legendre moments g_p^l, such as once-scattered light (g_p = g): at g 0.4 that is 3.6% of
+    /// the l = 0 term, forwards or backwards, and 0.5% at g 0.3; measured over the lookups of a
+    /// render, the interpolated estimate's mean is 0.2% (smoke.json, g 0.3) and 1.4% (smoke1,
+    /// g 0.4) below the exact one's), the density grid at its full resolution (cells ≈ r / 2) and
+    /// at most kMaxMomentNodes grid points with medium about them (120 bytes each).
+    static constexpr float kMaxMomentG = 0.4f;
+    static constexpr size_t kMaxMomentNodes = size_t(1) << 21;
+
 private:
+    // The estimate at a grid point p is Σ_p ΔΦ f(ω_p · ω_o) over the photons within r, and f's
+    // Legendre series up to l = 2 makes it linear in the photons' moments Σ ΔΦ, Σ ΔΦ ω and
+    // Σ ΔΦ ω ωᵀ: computed once per grid point, interpolated trilinearly at a lookup (one more
+    // blur of a cell, ≈ r / 2, on the ball's r), and evaluated with the phase at x. This replaces
+    // a kd-tree search of every photon within r per lookup (22% of a gather_depth 3 render of
+    // smoke.json) by 8 grid points' reads.
+    struct Moments {
+        Color m0{0.0f};                                                  ///< Σ ΔΦ
+        std::array<Color, 3> m1{Color(0.0f), Color(0.0f), Color(0.0f)};  ///< Σ ΔΦ ω_a
+        std::array<Color, 6> m2{
+            Color(0.0f), Color(0.0f), Color(0.0f),
+            Color(0.0f), Color(0.0f), Color(0.0f)};  ///< Σ ΔΦ ω_a ω_b: xx, yy, zz, xy, xz, yz
+    };
     const PhotonMap& map_;
     float radius_;
     int depth_;
     KernelDensity density_;
+    std::vector<int32_t> slot_;     ///< per grid point: its moments' index, or −1 (no medium)
+    std::vector<Moments> moments_;  ///< grid points with medium about them
 };
 
 }  // namespace fogmap
