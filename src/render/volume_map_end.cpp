@@ -105,8 +105,9 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
     const float cell = density_.cell(), r2 = radius * radius;
     const std::vector<Photon>& photons = map.tree.records();
     const auto range = [&](float v, int a, int* lo, int* hi) {  // grid points within r of v
-        *lo = std::max(0, static_cast<int>(std::ceil((v - radius - origin[a]) / cell)));
-        *hi = std::min(dims[a] - 1, static_cast<int>(std::floor((v + radius - origin[a]) / cell)));
+        const float top = float(dims[a] - 1);
+        *lo = static_cast<int>(std::clamp(std::ceil((v - radius - origin[a]) / cell), 0.0f, top));
+        *hi = static_cast<int>(std::clamp(std::floor((v + radius - origin[a]) / cell), -1.0f, top));
         return *lo <= *hi;
     };
     std::vector<std::vector<uint32_t>> layers(dims[2]);
