@@ -17,6 +17,10 @@
 
 namespace fogmap {
 
+/// Largest |g| for which the end of a camera path in the volume map reads its photons' moments
+/// cut after the l = 2 Legendre term (render/volume_map_end.h); the plan reports the same rule.
+constexpr float kMomentGridMaxG = 0.4f;
+
 class PhaseMix {
 public:
     /// One Henyey–Greenstein function.

@@ -80,7 +80,7 @@ public:
     /// render, the interpolated estimate's mean is 0.2% (smoke.json, g 0.3) and 1.4% (smoke1,
     /// g 0.4) below the exact one's), the density grid at its full resolution (cells ≈ r / 2) and
     /// at most kMaxMomentNodes grid points with medium about them (120 bytes each).
-    static constexpr float kMaxMomentG = 0.4f;
+    static constexpr float kMaxMomentG = kMomentGridMaxG;
     static constexpr size_t kMaxMomentNodes = size_t(1) << 21;
 
 private:

@@ -1,9 +1,11 @@
 #include "scene/plan.h"
 
+#include "media/phase.h"
 #include "scene/scene.h"
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -231,9 +233,13 @@ Plan make_plan(const SceneDesc& scene_desc) {
     } else if (desc.volume.gather_depth > 0) {
         const int d = desc.volume.gather_depth;
         plan.volume_map = plan_volume(desc);
+        bool mild = true;
+        for (const MediumDesc& m : desc.media) mild = mild && std::abs(m.g) <= kMomentGridMaxG;
         if (plan.volume_map)
             plan.volume_map.reason +=
-                "; camera paths end in it at medium vertex " + std::to_string(d);
+                "; camera paths end in it at medium vertex " + std::to_string(d) +
+                (mild ? ", looked up from a grid of its photons' moments"
+                      : ", looked up in its kd-tree (a medium's |g| above 0.4)");
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {

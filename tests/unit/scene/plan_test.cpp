@@ -281,7 +281,7 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
-              "in it at medium vertex 2)");
+              "in it at medium vertex 2, looked up from a grid of its photons' moments)");
     EXPECT_FALSE(p.global_map.on);
     EXPECT_EQ(line(p, kCaustic),
               "caustic map: skipped (volume.gather_depth 2: camera paths trace surfaces)");
@@ -329,9 +329,15 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     EXPECT_TRUE(smoke.volume_map.on);
     EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: photon (auto: media under sun", 0), 0u)
         << line(smoke, kIntegrator);
-    EXPECT_NE(line(smoke, kVolume).find("camera paths end in it at medium vertex 3"),
+    EXPECT_NE(line(smoke, kVolume)
+                  .find("camera paths end in it at medium vertex 3, looked up "
+                        "from a grid of its photons' moments"),
               std::string::npos)
         << line(smoke, kVolume);
+    json forward = sunlit;  // the moments' series cut after l = 2 would miss too much
+    forward["media"][0]["g"] = 0.85;
+    EXPECT_NE(line(pick(forward), kVolume).find("looked up in its kd-tree"), std::string::npos)
+        << line(pick(forward), kVolume);
     json beams = sunlit;  // photon beams gather along marched camera rays: no depth
     beams["volume"]["estimator"] = "photon_beams";
     EXPECT_EQ(line(pick(beams), kVolume).find("camera paths end"), std::string::npos);
