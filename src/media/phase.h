@@ -60,8 +60,8 @@ public:
         return sum / total_;
     }
 
-    /// The l-th coefficient of the mixture's Legendre series p = Σ_l (2l + 1) / (4π) a_l P_l(cos
-    /// θ): a_l = Σ_i w_i g_i^l / Σ_i w_i (Henyey–Greenstein's are g^l).
+    /// The l-th coefficient a_l of the mixture's Legendre series
+    /// p(cos θ) = Σ_l (2l + 1) / (4π) a_l P_l(cos θ): a_l = Σ_i w_i g_i^l / Σ_i w_i (an HG's: g^l).
     float legendre(int l) const {
         float sum = 0.0f;
         for (int i = 0; i < n_; ++i) sum += w_[i] * std::pow(g_[i], float(l));
