@@ -127,12 +127,13 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
             const std::array<Color, 3> m1{w.x * c, w.y * c, w.z * c};
             const std::array<Color, 6> m2{w.x * m1[0], w.y * m1[1], w.z * m1[2],
                                           w.y * m1[0], w.z * m1[0], w.z * m1[1]};
+            const Vec3 q = p.position() - origin;
             for (int j = j0; j <= j1; ++j)
                 for (int i = i0; i <= i1; ++i) {
-                    const size_t node = (size_t(k) * dims[1] + j) * dims[0] + i;
-                    const int32_t s = slot_[node];
-                    const Vec3 d = density_.node_position(node) - p.position();
-                    if (s < 0 || glm::dot(d, d) > r2) continue;
+                    const int32_t s = slot_[(size_t(k) * dims[1] + j) * dims[0] + i];
+                    if (s < 0) continue;
+                    const Vec3 d = cell * Vec3(float(i), float(j), float(k)) - q;
+                    if (glm::dot(d, d) > r2) continue;
                     Moments& m = moments_[s];
                     m.m0 += c;
                     for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
