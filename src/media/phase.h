@@ -20,6 +20,8 @@ namespace fogmap {
 /// Largest |g| for which the end of a camera path in the volume map reads its photons' moments
 /// cut after the l = 2 Legendre term (render/volume_map_end.h); the plan reports the same rule.
 constexpr float kMomentGridMaxG = 0.4f;
+/// A medium with asymmetry g lets those lookups read the moments.
+inline bool fits_moment_grid(float g) { return std::abs(g) <= kMomentGridMaxG; }
 
 class PhaseMix {
 public:
@@ -64,7 +66,11 @@ public:
     /// p(cos θ) = Σ_l (2l + 1) / (4π) a_l P_l(cos θ): a_l = Σ_i w_i g_i^l / Σ_i w_i (an HG's: g^l).
     float legendre(int l) const {
         float sum = 0.0f;
-        for (int i = 0; i < n_; ++i) sum += w_[i] * std::pow(g_[i], float(l));
+        for (int i = 0; i < n_; ++i) {
+            float g_l = 1.0f;
+            for (int k = 0; k < l; ++k) g_l *= g_[i];
+            sum += w_[i] * g_l;
+        }
         return sum / total_;
     }
 

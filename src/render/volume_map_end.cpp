@@ -89,7 +89,7 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                            int depth)
     : map_(map), radius_(radius), depth_(depth), density_(media, radius) {
     bool mild = true;
-    for (const Medium& m : media) mild = mild && std::abs(m.params().g) <= kMaxMomentG;
+    for (const Medium& m : media) mild = mild && fits_moment_grid(m.params().g);
     if (!mild || density_.nodes() == 0 || density_.cell() > 0.6f * radius) return;
     std::vector<size_t> nodes;
     for (size_t n = 0; n < density_.nodes(); ++n)

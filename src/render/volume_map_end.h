@@ -70,17 +70,17 @@ public:
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                       NeighborList& scratch) const;
 
-    /// Lookups interpolate the photons' directional moments (see the class comment below).
+    /// Lookups interpolate the photons' directional moments (see Moments below).
     bool interpolates() const { return !slot_.empty(); }
 
-    /// Where the moments are kept: every medium's |g| at most this (the phase's Legendre series
-    /// cut after l = 2 then misses at most Σ_{l≥3} (2l+1) (g g_p)^l / 4π of a photon field with
-    /// Legendre moments g_p^l, such as once-scattered light (g_p = g): at g 0.4 that is 3.6% of
-    /// the l = 0 term, forwards or backwards, and 0.5% at g 0.3; measured over the lookups of a
-    /// render, the interpolated estimate's mean is 0.2% (smoke.json, g 0.3) and 1.4% (smoke1,
-    /// g 0.4) below the exact one's), the density grid at its full resolution (cells ≈ r / 2) and
-    /// at most kMaxMomentNodes grid points with medium about them (120 bytes each).
-    static constexpr float kMaxMomentG = kMomentGridMaxG;
+    /// Where the moments are kept: every medium fits_moment_grid (|g| <= kMomentGridMaxG,
+    /// media/phase.h: the phase's Legendre series cut after l = 2 then misses at most
+    /// Σ_{l≥3} (2l+1) (g g_p)^l / 4π of a photon field with Legendre moments g_p^l, such as
+    /// once-scattered light (g_p = g): at g 0.4 that is 3.6% of the l = 0 term, forwards or
+    /// backwards, and 0.5% at g 0.3; measured over the lookups of a render, the interpolated
+    /// estimate's mean is 0.2% (smoke.json, g 0.3) and 1.4% (smoke1, g 0.4) below the exact
+    /// one's), the density grid at its full resolution (cells ≈ r / 2) and at most
+    /// kMaxMomentNodes grid points with medium about them (120 bytes each).
     static constexpr size_t kMaxMomentNodes = size_t(1) << 21;
 
 private:

@@ -5,9 +5,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <utility>
 
@@ -234,12 +234,15 @@ Plan make_plan(const SceneDesc& scene_desc) {
         const int d = desc.volume.gather_depth;
         plan.volume_map = plan_volume(desc);
         bool mild = true;
-        for (const MediumDesc& m : desc.media) mild = mild && std::abs(m.g) <= kMomentGridMaxG;
+        for (const MediumDesc& m : desc.media) mild = mild && fits_moment_grid(m.g);
+        char kd_tree[64];
+        std::snprintf(kd_tree, sizeof kd_tree,
+                      ", looked up in its kd-tree (a medium's |g| above %g)",
+                      double(kMomentGridMaxG));
         if (plan.volume_map)
             plan.volume_map.reason +=
                 "; camera paths end in it at medium vertex " + std::to_string(d) +
-                (mild ? ", looked up from a grid of its photons' moments"
-                      : ", looked up in its kd-tree (a medium's |g| above 0.4)");
+                (mild ? ", looked up from a grid of its photons' moments" : std::string(kd_tree));
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {

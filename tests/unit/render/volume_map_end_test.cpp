@@ -97,15 +97,15 @@ TEST(VolumeMapEnd, HomogeneousPhotonCloudGivesDensityTimesPowerTimesPhaseOverSig
 }
 
 // Photons whose travel directions follow an HG(g_p) lobe about an oblique axis (as once-scattered
-// sunlight's do, with g_p = g) seen through the HG(g) phase: the estimate is ρ ΔΦ f(ω_o · axis; g
-// g_p) / σ_s, since two HG lobes compose to the HG of the product of their g (Legendre coefficients
-// multiply). At g = kMaxMomentG the lookup interpolates the photons' moments and cuts the series
-// after l = 2, which misses Σ_{l≥3} (2l+1) (g g_p)^l P_l(cos θ) / 4π — allowed on top of 4 Poisson
-// deviations. Without the l = 2 term the estimate is 10% low forwards, 20% backwards; with l = 1's
-// sign flipped the two swap (2.6 times apart).
+// sunlight's do, with g_p = g) seen through the HG(g) phase: the estimate is
+// ρ ΔΦ f(ω_o · axis; g g_p) / σ_s, since two HG lobes compose to the HG of the product of their g
+// (Legendre coefficients multiply). At g = kMomentGridMaxG the lookup interpolates the photons'
+// moments and cuts the series after l = 2, which misses Σ_{l≥3} (2l+1) (g g_p)^l P_l(cos θ) / 4π —
+// allowed on top of 4 Poisson deviations. Without the l = 2 term the estimate is 10% low
+// forwards, 20% backwards; with l = 1's sign flipped the two swap (2.6 times apart).
 TEST(VolumeMapEnd, InterpolatedMomentsMatchTheComposedPhaseFunction) {
     const int count = 1000000;
-    const float g = VolumeMapEnd::kMaxMomentG, g_p = g, g_composed = g * g_p;
+    const float g = kMomentGridMaxG, g_p = g, g_composed = g * g_p;
     Rng rng(13, 4);
     std::vector<Photon> photons;
     const Vec3 axis = glm::normalize(Vec3(0.6f, 0.7f, -0.6f));  // every moment's component in use
