@@ -118,6 +118,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
+    std::optional<SigmaTable> sigma_table;  // map_end: σ_s over boxes, for every iteration
     // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
     // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the
     // `base` iterations of the checkpoint resumed from.
@@ -236,9 +237,19 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                 } else if (map_end) {
                     const Timer precompute;
                     std::optional<VolumeMapEnd> end;
-                    if (maps.volume)
+                    if (maps.volume) {
+                        // Where the ball holds many photons, gather about k of them
+                        // (VolumeMapEnd's AdaptiveRadius), k shrinking with the radius's cube;
+                        // a radius the scene sets is kept everywhere.
+                        const float r1 = first_gather->volume.radius;
+                        const bool adaptive =
+                            desc.volume.radius <= 0.0f && moment_grid_fits(scene->media);
+                        if (adaptive && !sigma_table) sigma_table.emplace(scene->media, 2.0f * r1);
+                        const float shrink = std::pow(gather.volume.radius / r1, 3.0f);
                         end.emplace(*maps.volume, scene->media, gather.volume.radius,
-                                    gather.gather_depth);
+                                    gather.gather_depth, adaptive ? &*sigma_table : nullptr,
+                                    float(first_gather->volume.k) * shrink);
+                    }
                     add_phase(&report, "precompute", precompute.seconds());
                     film = render_path(*scene, settings, quiet_pass, &stats, nullptr,
                                        end ? &*end : nullptr);

@@ -9,6 +9,18 @@
 
 namespace fogmap {
 
+namespace {
+
+// σ_s L_i / σ̄_s per channel; 0 where σ̄_s is (no photon can be there).
+Color divide(const Color& collisions, const Color& density) {
+    Color out(0.0f);
+    for (int c = 0; c < 3; ++c)
+        if (density[c] > 0.0f) out[c] = collisions[c] / density[c];
+    return out;
+}
+
+}  // namespace
+
 KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
     Box3 bounds;
     for (const Medium& m : media) bounds.extend(m.world_bounds());
@@ -85,12 +97,97 @@ Vec3 KernelDensity::node_position(size_t n) const {
     return origin_ + cell_ * Vec3(float(n % nx), float((n / nx) % ny), float(n / (nx * ny)));
 }
 
+bool moment_grid_fits(const std::vector<Medium>& media) {
+    return std::all_of(media.begin(), media.end(),
+                       [](const Medium& m) { return fits_moment_grid(m.params().g); });
+}
+
+SigmaTable::SigmaTable(const std::vector<Medium>& media, float margin) {
+    Box3 bounds;
+    float voxel = kInfinity;
+    for (const Medium& m : media) {
+        bounds.extend(m.world_bounds());
+        if (m.voxel_world() > 0.0f) voxel = std::min(voxel, m.voxel_world());
+    }
+    if (bounds.empty()) return;
+    origin_ = bounds.lo - Vec3(margin);
+    const Vec3 extent = bounds.extent() + Vec3(2.0f * margin);
+    cell_ = voxel < kInfinity ? voxel : max_component(extent) / 128.0f;
+    const double volume = double(extent.x) * extent.y * extent.z;
+    if (volume / (double(cell_) * cell_ * cell_) > double(kMaxCells))
+        cell_ = static_cast<float>(std::cbrt(volume / double(kMaxCells)));
+    for (int a = 0; a < 3; ++a) dims_[a] = static_cast<int>(std::ceil(extent[a] / cell_)) + 1;
+    const size_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
+    // sums_[(k ny + j) nx + i] = ∫ σ_s over [origin, origin + cell (i, j, k)]: the cells' values
+    // (σ_s at their centres × cell volume) at index + 1, then prefix sums along x, y and z.
+    sums_.assign(nx * ny * nz, DVec3(0.0));
+    const double cell_volume = double(cell_) * cell_ * cell_;
+    tbb::parallel_for(size_t(1), nz, [&](size_t k) {
+        std::vector<Medium::Sampler> samplers;
+        for (const Medium& m : media) samplers.emplace_back(m);
+        for (size_t j = 1; j < ny; ++j)
+            for (size_t i = 1; i < nx; ++i) {
+                const Vec3 p = origin_ + cell_ * (Vec3(float(i), float(j), float(k)) - 0.5f);
+                Color s(0.0f);
+                for (Medium::Sampler& sm : samplers)
+                    s += sm.density(p) * sm.medium().params().sigma_s;
+                sums_[(k * ny + j) * nx + i] = DVec3(s) * cell_volume;
+            }
+    });
+    tbb::parallel_for(size_t(0), ny * nz, [&](size_t row) {  // along x
+        for (size_t i = 1; i < nx; ++i) sums_[row * nx + i] += sums_[row * nx + i - 1];
+    });
+    tbb::parallel_for(size_t(0), nz, [&](size_t k) {  // along y
+        for (size_t j = 1; j < ny; ++j)
+            for (size_t i = 0; i < nx; ++i)
+                sums_[(k * ny + j) * nx + i] += sums_[(k * ny + j - 1) * nx + i];
+    });
+    tbb::parallel_for(size_t(0), ny, [&](size_t j) {  // along z
+        for (size_t k = 1; k < nz; ++k)
+            for (size_t i = 0; i < nx; ++i)
+                sums_[(k * ny + j) * nx + i] += sums_[((k - 1) * ny + j) * nx + i];
+    });
+}
+
+// Within a cell σ_s is constant, so the integral from the origin is trilinear in the corner:
+// interpolating the lattice's sums is exact.
+DVec3 SigmaTable::integral_to(const Vec3& u) const {
+    int c[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const float top = float(dims_[a] - 1);
+        const float v = std::clamp(u[a], 0.0f, top);
+        c[a] = std::min(static_cast<int>(v), dims_[a] - 2);
+        f[a] = double(v) - c[a];
+    }
+    const size_t nx = dims_[0], ny = dims_[1];
+    DVec3 sum(0.0);
+    for (int n = 0; n < 8; ++n) {
+        const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
+        const double w =
+            (dx ? f[0] : 1.0 - f[0]) * (dy ? f[1] : 1.0 - f[1]) * (dz ? f[2] : 1.0 - f[2]);
+        sum += w * sums_[((c[2] + dz) * ny + c[1] + dy) * nx + c[0] + dx];
+    }
+    return sum;
+}
+
+Color SigmaTable::cube_average(const Vec3& x, float edge) const {
+    if (sums_.empty() || !(edge > 0.0f)) return Color(0.0f);
+    const Vec3 lo = (x - origin_ - 0.5f * edge) / cell_, hi = (x - origin_ + 0.5f * edge) / cell_;
+    DVec3 sum(0.0);
+    for (int n = 0; n < 8; ++n) {  // inclusion–exclusion over the box's corners
+        const Vec3 corner((n & 1) ? hi.x : lo.x, (n & 2) ? hi.y : lo.y, (n & 4) ? hi.z : lo.z);
+        const int lows = !(n & 1) + !(n & 2) + !(n & 4);
+        sum += (lows % 2 ? -1.0 : 1.0) * integral_to(corner);
+    }
+    return Color(glm::max(sum, DVec3(0.0)) / (double(edge) * edge * edge));
+}
+
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth)
-    : map_(map), radius_(radius), depth_(depth), density_(media, radius) {
-    bool mild = true;
-    for (const Medium& m : media) mild = mild && fits_moment_grid(m.params().g);
-    if (!mild || density_.nodes() == 0 || density_.cell() > 0.6f * radius) return;
+                           int depth, const SigmaTable* table, float k)
+    : map_(map), radius_(radius), depth_(depth), density_(media, radius), table_(table), k_(k) {
+    if (!moment_grid_fits(media) || density_.nodes() == 0 || density_.cell() > 0.6f * radius)
+        return;
     std::vector<size_t> nodes;
     for (size_t n = 0; n < density_.nodes(); ++n)
         if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
@@ -136,6 +233,7 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                     if (glm::dot(d, d) > r2) continue;
                     Moments& m = moments_[s];
                     m.m0 += c;
+                    m.count += 1.0f;
                     for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
                     for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
                 }
@@ -157,9 +255,16 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
             if (s < 0) continue;
             const Moments& q = moments_[s];
             const float w = c.weight[n];
+            m.count += w * q.count;
             m.m0 += w * q.m0;
             for (int a = 0; a < 3; ++a) m.m1[a] += w * q.m1[a];
             for (int a = 0; a < 6; ++a) m.m2[a] += w * q.m2[a];
+        }
+        if (table_ && k_ > 0.0f && m.count > 2.0f * k_) {  // AdaptiveRadius (header)
+            const float r = radius_ * std::cbrt(k_ / m.count);
+            collisions = volume_inscattered(map_, x, -dir, phase, 0, r, scratch);
+            density = table_->cube_average(x, std::cbrt(4.0f * kPi / 3.0f) * r);
+            return divide(collisions, density);
         }
         // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
         const Vec3 o = -dir;
@@ -175,10 +280,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
         density = density_.at(x);
     }
-    Color out(0.0f);
-    for (int c = 0; c < 3; ++c)
-        if (density[c] > 0.0f) out[c] = collisions[c] / density[c];
-    return out;
+    return divide(collisions, density);
 }
 
 }  // namespace fogmap

@@ -242,7 +242,14 @@ Plan make_plan(const SceneDesc& scene_desc) {
         if (plan.volume_map)
             plan.volume_map.reason +=
                 "; camera paths end in it at medium vertex " + std::to_string(d) +
-                (mild ? ", looked up from a grid of its photons' moments" : std::string(kd_tree));
+                (!mild ? std::string(kd_tree)
+                 : desc.volume.radius > 0.0f
+                     ? ", looked up from a grid of its photons' moments"
+                     : ", looked up from a grid of its photons' moments (where more than " +
+                           std::to_string(2 * desc.volume.k) +
+                           " fall within its radius, within a smaller one holding about volume.k "
+                           "= " +
+                           std::to_string(desc.volume.k) + ")");
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {

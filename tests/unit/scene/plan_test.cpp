@@ -281,6 +281,13 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
+              "in it at medium vertex 2, looked up from a grid of its photons' moments (where "
+              "more than 100 fall within its radius, within a smaller one holding about volume.k "
+              "= 50))");
+    // A radius the scene sets is kept at every lookup.
+    doc["volume"]["radius"] = 0.5;
+    EXPECT_EQ(line(make_plan(scene(doc)), kVolume),
+              "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
               "in it at medium vertex 2, looked up from a grid of its photons' moments)");
     EXPECT_FALSE(p.global_map.on);
     EXPECT_EQ(line(p, kCaustic),
