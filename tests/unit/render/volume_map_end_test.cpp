@@ -16,6 +16,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace fogmap {
@@ -23,16 +24,21 @@ namespace {
 
 float ramp(float x, float y, float z) { return 0.1f + 0.2f * x + 0.1f * y + 0.05f * z; }
 
-TEST(KernelDensity, AveragesALinearRampToItsValue) {
+// The ramp on 40³ voxels of 0.1, written to a VDB file named `name` and loaded.
+std::shared_ptr<const DensityGrid> load_ramp(const std::string& name) {
     const int n = 40;
     const float voxel = 0.1f;
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_kernel_density_ramp.vdb";
+    const auto path = std::filesystem::temp_directory_path() / name;
     write_float_grid(
         path.string(), "density", n, n, n,
         [&](int i, int j, int k) { return ramp(i * voxel, j * voxel, k * voxel); }, Vec3(voxel));
-    const std::shared_ptr<const DensityGrid> grid =
-        DensityGrid::load(path.string(), "density", "");
+    std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
     std::filesystem::remove(path);
+    return grid;
+}
+
+TEST(KernelDensity, AveragesALinearRampToItsValue) {
+    const std::shared_ptr<const DensityGrid> grid = load_ramp("fogmap_kernel_density_ramp.vdb");
     const Color sigma_s(2.0f, 1.0f, 0.5f);
     const std::vector<Medium> media{
         Medium::heterogeneous({sigma_s, Color(0.0f), 0.0f}, grid, Mat4(1.0f))};
@@ -66,14 +72,7 @@ TEST(KernelDensity, HomogeneousMediumIsItsSigmaSInsideAndZeroFarOutside) {
 // cost at most 0.002 here; the table one cell off would be 0.02 off), and a cube astride a
 // homogeneous medium's face holds σ_s over the part inside.
 TEST(SigmaTable, CubeAveragesMatchALinearRampAndAHalfFilledCube) {
-    const int n = 40;
-    const float voxel = 0.1f;
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_sigma_table_ramp.vdb";
-    write_float_grid(
-        path.string(), "density", n, n, n,
-        [&](int i, int j, int k) { return ramp(i * voxel, j * voxel, k * voxel); }, Vec3(voxel));
-    const std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
+    const std::shared_ptr<const DensityGrid> grid = load_ramp("fogmap_sigma_table_ramp.vdb");
     const Color sigma_s(2.0f, 1.0f, 0.5f);
     const SigmaTable ramp_table(
         {Medium::heterogeneous({sigma_s, Color(0.0f), 0.0f}, grid, Mat4(1.0f))}, 0.5f);
