@@ -242,13 +242,16 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                         // (VolumeMapEnd's AdaptiveRadius), k shrinking with the radius's cube;
                         // a radius the scene sets is kept everywhere.
                         const float r1 = first_gather->volume.radius;
-                        const bool adaptive =
-                            desc.volume.radius <= 0.0f && moment_grid_fits(scene->media);
-                        if (adaptive && !sigma_table) sigma_table.emplace(scene->media, 2.0f * r1);
-                        const float shrink = std::pow(gather.volume.radius / r1, 3.0f);
+                        const float k = desc.volume.radius > 0.0f
+                                            ? 0.0f
+                                            : float(first_gather->volume.k) *
+                                                  std::pow(gather.volume.radius / r1, 3.0f);
                         end.emplace(*maps.volume, scene->media, gather.volume.radius,
-                                    gather.gather_depth, adaptive ? &*sigma_table : nullptr,
-                                    float(first_gather->volume.k) * shrink);
+                                    gather.gather_depth, k);
+                        if (end->wants_table()) {
+                            if (!sigma_table) sigma_table.emplace(scene->media, 2.0f * r1);
+                            end->set_table(&*sigma_table);
+                        }
                     }
                     add_phase(&report, "precompute", precompute.seconds());
                     film = render_path(*scene, settings, quiet_pass, &stats, nullptr,

@@ -19,6 +19,12 @@ Color divide(const Color& collisions, const Color& density) {
     return out;
 }
 
+// Every medium's |g| lets the lookups read a grid of moments (fits_moment_grid).
+bool moment_grid_fits(const std::vector<Medium>& media) {
+    return std::all_of(media.begin(), media.end(),
+                       [](const Medium& m) { return fits_moment_grid(m.params().g); });
+}
+
 }  // namespace
 
 KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
@@ -95,11 +101,6 @@ Color KernelDensity::at(const Vec3& x) const {
 Vec3 KernelDensity::node_position(size_t n) const {
     const size_t nx = dims_[0], ny = dims_[1];
     return origin_ + cell_ * Vec3(float(n % nx), float((n / nx) % ny), float(n / (nx * ny)));
-}
-
-bool moment_grid_fits(const std::vector<Medium>& media) {
-    return std::all_of(media.begin(), media.end(),
-                       [](const Medium& m) { return fits_moment_grid(m.params().g); });
 }
 
 SigmaTable::SigmaTable(const std::vector<Medium>& media, float margin) {
@@ -184,8 +185,8 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth, const SigmaTable* table, float k)
-    : map_(map), radius_(radius), depth_(depth), density_(media, radius), table_(table), k_(k) {
+                           int depth, float k)
+    : map_(map), radius_(radius), depth_(depth), density_(media, radius), k_(k) {
     if (!moment_grid_fits(media) || density_.nodes() == 0 || density_.cell() > 0.6f * radius)
         return;
     std::vector<size_t> nodes;
@@ -239,6 +240,9 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                 }
         }
     });
+    crowded_anywhere_ =
+        k_ > 0.0f && std::any_of(moments_.begin(), moments_.end(),
+                                 [&](const Moments& m) { return m.count > 2.0f * k_; });
 }
 
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
@@ -260,12 +264,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
             for (int a = 0; a < 3; ++a) m.m1[a] += w * q.m1[a];
             for (int a = 0; a < 6; ++a) m.m2[a] += w * q.m2[a];
         }
-        if (table_ && k_ > 0.0f && m.count > 2.0f * k_) {  // AdaptiveRadius (header)
-            const float r = radius_ * std::cbrt(k_ / m.count);
-            collisions = volume_inscattered(map_, x, -dir, phase, 0, r, scratch);
-            density = table_->cube_average(x, std::cbrt(4.0f * kPi / 3.0f) * r);
-            return divide(collisions, density);
-        }
+        if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
         // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
         const Vec3 o = -dir;
         const Color s1 = o.x * m.m1[0] + o.y * m.m1[1] + o.z * m.m1[2];
@@ -281,6 +280,15 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         density = density_.at(x);
     }
     return divide(collisions, density);
+}
+
+// AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's
+// equal-volume cube.
+Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
+                                 NeighborList& scratch) const {
+    const float r = radius_ * std::cbrt(k_ / n);
+    return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch),
+                  table_->cube_average(x, std::cbrt(4.0f * kPi / 3.0f) * r));
 }
 
 }  // namespace fogmap

@@ -239,17 +239,18 @@ Plan make_plan(const SceneDesc& scene_desc) {
         std::snprintf(kd_tree, sizeof kd_tree,
                       ", looked up in its kd-tree (a medium's |g| above %g)",
                       double(kMomentGridMaxG));
+        // The smaller radius where photons crowd (render/volume_map_end.h, AdaptiveRadius).
+        const std::string lookup =
+            !mild ? std::string(kd_tree)
+            : desc.volume.radius > 0.0f
+                ? ", looked up from a grid of its photons' moments"
+                : ", looked up from a grid of its photons' moments (where more than " +
+                      std::to_string(2 * desc.volume.k) +
+                      " fall within its radius, within a smaller one holding about volume.k = " +
+                      std::to_string(desc.volume.k) + ")";
         if (plan.volume_map)
             plan.volume_map.reason +=
-                "; camera paths end in it at medium vertex " + std::to_string(d) +
-                (!mild ? std::string(kd_tree)
-                 : desc.volume.radius > 0.0f
-                     ? ", looked up from a grid of its photons' moments"
-                     : ", looked up from a grid of its photons' moments (where more than " +
-                           std::to_string(2 * desc.volume.k) +
-                           " fall within its radius, within a smaller one holding about volume.k "
-                           "= " +
-                           std::to_string(desc.volume.k) + ")");
+                "; camera paths end in it at medium vertex " + std::to_string(d) + lookup;
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {

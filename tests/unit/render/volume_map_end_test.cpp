@@ -234,7 +234,10 @@ TEST(VolumeMapEnd, ManyPhotonsInTheBallGatherWithinASmallerRadius) {
             }
         return sum / (100.0f * float(rho * map.photon_power * kInvFourPi) / sigma_s);
     };
-    const Color adaptive = mean_ratio(VolumeMapEnd(map, media, radius, 3, &table, k));
+    VolumeMapEnd end(map, media, radius, 3, k);
+    ASSERT_TRUE(end.wants_table());
+    end.set_table(&table);
+    const Color adaptive = mean_ratio(end);
     const double tolerance = 4.0 / std::sqrt(100.0 * k) + 0.03;
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(adaptive[c], 1.0, tolerance) << "channel " << c;
     const Color fixed = mean_ratio(VolumeMapEnd(map, media, radius, 3));

@@ -343,7 +343,9 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
         << line(smoke, kVolume);
     json forward = sunlit;  // the moments' series cut after l = 2 would miss too much
     forward["media"][0]["g"] = 0.85;
-    EXPECT_NE(line(pick(forward), kVolume).find("looked up in its kd-tree"), std::string::npos)
+    EXPECT_NE(
+        line(pick(forward), kVolume).find("looked up in its kd-tree (a medium's |g| above 0.4)"),
+        std::string::npos)
         << line(pick(forward), kVolume);
     json beams = sunlit;  // photon beams gather along marched camera rays: no depth
     beams["volume"]["estimator"] = "photon_beams";
