@@ -61,10 +61,11 @@ private:
 /// σ_s integrated over axis-aligned boxes, for every medium together: a summed-volume table of
 /// σ_s sampled at the centres of cubic cells (the media's finest voxel, or larger where the
 /// table would exceed kMaxCells) over the media's bounds grown by `margin`. Built once per render
-/// (σ_s does not change between progressive iterations).
+/// (σ_s does not change between progressive iterations). The cap: on smoke1 2¹⁹ cells (twice its
+/// voxel, 0.04 s) gave the same error as its voxel size (2²¹), 2¹⁷ overshot its dense foot by 1.1%.
 class SigmaTable {
 public:
-    static constexpr size_t kMaxCells = size_t(1) << 21;  ///< 24 bytes each: at most 50 MB
+    static constexpr size_t kMaxCells = size_t(1) << 19;  ///< 24 bytes each: at most 12 MB
     SigmaTable(const std::vector<Medium>& media, float margin);
     /// σ_s averaged over the cube of edge `edge` about x (the cells' piecewise-constant σ_s,
     /// integrated exactly), per channel; 0 beyond the table.
@@ -120,7 +121,7 @@ public:
     // over r_a's equal-volume cube (SigmaTable, built only when some grid point is crowded).
     // The caller scales k by (r / r₁)³ in progressive iterations, so r_a shrinks with r. Lookups
     // in the kd-tree (|g| > kMomentGridMaxG) keep r: on the Disney cloud over the ground the same
-    // rule moved 183 of 57 600 pixel channels, and its table cost 0.1 s.
+    // rule moved 183 of 57 600 pixel channels (relMSE 0.005155 → 0.005165, 4 seeds).
 
 private:
     /// n photons within r call for AdaptiveRadius.
