@@ -61,8 +61,8 @@ private:
 /// σ_s integrated over axis-aligned boxes, for every medium together: a summed-volume table of
 /// σ_s sampled at the centres of cubic cells (the media's finest voxel, or larger where the
 /// table would exceed kMaxCells) over the media's bounds grown by `margin`. Built once per render
-/// (σ_s does not change between progressive iterations). The cap: on smoke1 2¹⁹ cells (twice its
-/// voxel, 0.04 s) gave the same error as its voxel size (2²¹), 2¹⁷ overshot its dense foot by 1.1%.
+/// (σ_s does not change between progressive iterations). The cap: on smoke1 2¹⁹ cells (1.9 voxels,
+/// 0.04 s) gave the same error as 2²¹ (1.2 voxels); 2¹⁷ (3 voxels) overshot its dense foot by 1.1%.
 class SigmaTable {
 public:
     static constexpr size_t kMaxCells = size_t(1) << 19;  ///< 24 bytes each: at most 12 MB
