@@ -11,7 +11,7 @@ namespace fogmap {
 
 namespace {
 
-// σ_s L_i / σ̄_s per channel; 0 where σ̄_s is (no photon can be there).
+// σ_s L_i / σ̄_s per channel; 0 where σ̄_s is 0 (no photon can be there).
 Color divide(const Color& collisions, const Color& density) {
     Color out(0.0f);
     for (int c = 0; c < 3; ++c)
