@@ -19,6 +19,22 @@ Color divide(const Color& collisions, const Color& density) {
     return out;
 }
 
+// A lattice's cell edge over `extent`: `cell`, or larger where the lattice would exceed
+// max_cells cells.
+float capped_cell(const Vec3& extent, float cell, size_t max_cells) {
+    const double volume = double(extent.x) * extent.y * extent.z;
+    if (volume / (double(cell) * cell * cell) > double(max_cells))
+        return static_cast<float>(std::cbrt(volume / double(max_cells)));
+    return cell;
+}
+
+// σ_s of every medium at p (density 0 outside a medium).
+Color sigma_s_at(std::vector<Medium::Sampler>& samplers, const Vec3& p) {
+    Color s(0.0f);
+    for (Medium::Sampler& sm : samplers) s += sm.density(p) * sm.medium().params().sigma_s;
+    return s;
+}
+
 // Every medium's |g| lets the lookups read a grid of moments (fits_moment_grid).
 bool moment_grid_fits(const std::vector<Medium>& media) {
     return std::all_of(media.begin(), media.end(),
@@ -34,10 +50,7 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
     // The cube of the ball's volume, (4π/3)^⅓ r on a side, averaged over 3 points per axis.
     const float edge = std::cbrt(4.0f * kPi / 3.0f) * radius;
     const Vec3 extent = bounds.extent() + Vec3(4.0f * edge);
-    cell_ = edge / 3.0f;
-    const double volume = double(extent.x) * extent.y * extent.z;
-    if (volume / (double(cell_) * cell_ * cell_) > double(kMaxCells))
-        cell_ = static_cast<float>(std::cbrt(volume / double(kMaxCells)));
+    cell_ = capped_cell(extent, edge / 3.0f, kMaxCells);
     origin_ = bounds.lo - Vec3(2.0f * edge);
     for (int a = 0; a < 3; ++a) dims_[a] = static_cast<int>(std::ceil(extent[a] / cell_)) + 1;
     const size_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
@@ -48,9 +61,7 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
         for (size_t j = 0; j < ny; ++j)
             for (size_t i = 0; i < nx; ++i) {
                 const Vec3 p = origin_ + cell_ * Vec3(float(i), float(j), float(k));
-                Color s(0.0f);
-                for (Medium::Sampler& sm : samplers) s += sm.density(p) * sm.medium().params().sigma_s;
-                points[(k * ny + j) * nx + i] = s;
+                points[(k * ny + j) * nx + i] = sigma_s_at(samplers, p);
             }
     });
     // Separable 3-point box average (three passes: the last writes values_); outside the grid,
@@ -113,10 +124,8 @@ SigmaTable::SigmaTable(const std::vector<Medium>& media, float margin) {
     if (bounds.empty()) return;
     origin_ = bounds.lo - Vec3(margin);
     const Vec3 extent = bounds.extent() + Vec3(2.0f * margin);
-    cell_ = voxel < kInfinity ? voxel : max_component(extent) / 128.0f;
-    const double volume = double(extent.x) * extent.y * extent.z;
-    if (volume / (double(cell_) * cell_ * cell_) > double(kMaxCells))
-        cell_ = static_cast<float>(std::cbrt(volume / double(kMaxCells)));
+    cell_ =
+        capped_cell(extent, voxel < kInfinity ? voxel : max_component(extent) / 128.0f, kMaxCells);
     for (int a = 0; a < 3; ++a) dims_[a] = static_cast<int>(std::ceil(extent[a] / cell_)) + 1;
     const size_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
     // sums_[(k ny + j) nx + i] = ∫ σ_s over [origin, origin + cell (i, j, k)]: the cells' values
@@ -129,10 +138,7 @@ SigmaTable::SigmaTable(const std::vector<Medium>& media, float margin) {
         for (size_t j = 1; j < ny; ++j)
             for (size_t i = 1; i < nx; ++i) {
                 const Vec3 p = origin_ + cell_ * (Vec3(float(i), float(j), float(k)) - 0.5f);
-                Color s(0.0f);
-                for (Medium::Sampler& sm : samplers)
-                    s += sm.density(p) * sm.medium().params().sigma_s;
-                sums_[(k * ny + j) * nx + i] = DVec3(s) * cell_volume;
+                sums_[(k * ny + j) * nx + i] = DVec3(sigma_s_at(samplers, p)) * cell_volume;
             }
     });
     tbb::parallel_for(size_t(0), ny * nz, [&](size_t row) {  // along x

@@ -239,13 +239,9 @@ Plan make_plan(const SceneDesc& scene_desc) {
         std::snprintf(kd_tree, sizeof kd_tree,
                       ", looked up in its kd-tree (a medium's |g| above %g)",
                       double(kMomentGridMaxG));
-        // The smaller radius where photons crowd (render/volume_map_end.h, AdaptiveRadius).
-        const std::string lookup =
-            !mild ? std::string(kd_tree)
-            : desc.volume.radius > 0.0f
-                ? ", looked up from a grid of its photons' moments"
-                : ", looked up from a grid of its photons' moments (where more than " +
-                      std::to_string(2 * desc.volume.k) +
+        std::string lookup = mild ? ", looked up from a grid of its photons' moments" : kd_tree;
+        if (mild && desc.volume.radius <= 0.0f)  // render/volume_map_end.h, AdaptiveRadius
+            lookup += " (where more than " + std::to_string(2 * desc.volume.k) +
                       " fall within its radius, within a smaller one holding about volume.k = " +
                       std::to_string(desc.volume.k) + ")";
         if (plan.volume_map)
