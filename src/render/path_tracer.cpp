@@ -155,7 +155,7 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     }
     ++p.depth;
     const PhaseMix phase(ts.media, x);
-    if (end_ && ++p.medium_vertices == end_->depth()) {
+    if (end_ && end_->ends_at(x, ++p.medium_vertices)) {
         // Direct light by a shadow ray, the rest from the map; the path ends here.
         *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
         *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);

@@ -247,7 +247,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                                             : float(first_gather->volume.k) *
                                                   std::pow(gather.volume.radius / r1, 3.0f);
                         end.emplace(*maps.volume, scene->media, gather.volume.radius,
-                                    gather.gather_depth, k);
+                                    gather.gather_depth, k, desc.volume.gather_tau);
                         if (end->wants_table()) {
                             if (!sigma_table) sigma_table.emplace(scene->media, 2.0f * r1);
                             end->set_table(&*sigma_table);

@@ -191,8 +191,8 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth, float k)
-    : map_(map), radius_(radius), depth_(depth), density_(media, radius), k_(k) {
+                           int depth, float k, float max_tau)
+    : map_(map), radius_(radius), depth_(depth), density_(media, radius), k_(k), max_tau_(max_tau) {
     if (!moment_grid_fits(media) || density_.nodes() == 0 || density_.cell() > 0.6f * radius)
         return;
     std::vector<size_t> nodes;
@@ -251,25 +251,39 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                                  [&](const Moments& m) { return m.count > 2.0f * k_; });
 }
 
+bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m) const {
+    KernelDensity::Corners c;
+    if (!density_.corners(x, &c)) return false;
+    *density = Color(0.0f);
+    for (int n = 0; n < 8; ++n) {
+        const float w = c.weight[n];
+        *density += w * density_.node_value(c.node[n]);
+        const int32_t s = interpolates() ? slot_[c.node[n]] : -1;
+        if (s < 0) continue;
+        const Moments& q = moments_[s];
+        m->count += w * q.count;
+        m->m0 += w * q.m0;
+        for (int a = 0; a < 3; ++a) m->m1[a] += w * q.m1[a];
+        for (int a = 0; a < 6; ++a) m->m2[a] += w * q.m2[a];
+    }
+    return true;
+}
+
+float VolumeMapEnd::optical_radius(const Vec3& x) const {
+    Color density;
+    Moments m;
+    if (!interpolate(x, &density, &m)) return 0.0f;
+    const float r = crowded(m.count) ? radius_ * std::cbrt(k_ / m.count) : radius_;
+    return max_component(density) * r;
+}
+
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                                 NeighborList& scratch) const {
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
     Color collisions(0.0f), density(0.0f);
     if (interpolates()) {
-        KernelDensity::Corners c;
-        if (!density_.corners(x, &c)) return Color(0.0f);
         Moments m;
-        for (int n = 0; n < 8; ++n) {
-            density += c.weight[n] * density_.node_value(c.node[n]);
-            const int32_t s = slot_[c.node[n]];
-            if (s < 0) continue;
-            const Moments& q = moments_[s];
-            const float w = c.weight[n];
-            m.count += w * q.count;
-            m.m0 += w * q.m0;
-            for (int a = 0; a < 3; ++a) m.m1[a] += w * q.m1[a];
-            for (int a = 0; a < 6; ++a) m.m2[a] += w * q.m2[a];
-        }
+        if (!interpolate(x, &density, &m)) return Color(0.0f);
         if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
         // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
         const Vec3 o = -dir;

@@ -244,9 +244,16 @@ Plan make_plan(const SceneDesc& scene_desc) {
             lookup += " (where more than " + std::to_string(2 * desc.volume.k) +
                       " fall within its radius, within a smaller one holding about volume.k = " +
                       std::to_string(desc.volume.k) + ")";
-        if (plan.volume_map)
-            plan.volume_map.reason +=
-                "; camera paths end in it at medium vertex " + std::to_string(d) + lookup;
+        std::string at = "at medium vertex " + std::to_string(d);
+        if (desc.volume.gather_tau > 0.0f) {  // render/volume_map_end.h, FineEnough
+            char tau[160];
+            std::snprintf(tau, sizeof tau,
+                          " or the first after it where its ball spans at most volume.gather_tau "
+                          "= %g scattering mean free paths (by vertex %d)",
+                          double(desc.volume.gather_tau), kLatestEndFactor * d);
+            at += tau;
+        }
+        if (plan.volume_map) plan.volume_map.reason += "; camera paths end in it " + at + lookup;
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");
     } else {

@@ -191,6 +191,7 @@ void volume_fields(G& g, V& v) {
     v.value("lookups_per_ray", g.lookups_per_ray);
     v.value("light_samples", g.light_samples);
     v.value("gather_depth", g.gather_depth);
+    v.value("gather_tau", g.gather_tau);
 }
 
 template <class M, class V>

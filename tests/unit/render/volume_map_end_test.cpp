@@ -244,5 +244,37 @@ TEST(VolumeMapEnd, ManyPhotonsInTheBallGatherWithinASmallerRadius) {
     EXPECT_GT(fixed.x, 1.4f);  // the blur the adaptive radius removes
 }
 
+// FineEnough: inside a homogeneous medium the ball spans σ_s r scattering mean free paths (the
+// most scattering channel's); a path ends at its D-th medium vertex where that is at most
+// max_tau, else at the first later vertex where it is, and at vertex 4D in any case.
+TEST(VolumeMapEnd, PathsEndWhereTheBallSpansFewMeanFreePaths) {
+    Rng rng(3, 1);
+    std::vector<Photon> photons;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 p = 2.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - 1.0f;
+        photons.emplace_back(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())),
+                             Color(1.0f));
+    }
+    PhotonMap map;
+    map.tree = KdTree<Photon>(std::move(photons));
+    map.photon_power = 0.001f;
+    const std::vector<Medium> media{Medium::homogeneous(
+        {Color(2.0f, 1.0f, 0.5f), Color(0.1f), 0.0f}, Box3{Vec3(-1.0f), Vec3(1.0f)})};
+    const float radius = 0.25f;  // σ_s r = 0.5 for the red channel
+    const VolumeMapEnd fine(map, media, radius, 3, 0.0f, 0.6f);
+    const VolumeMapEnd coarse(map, media, radius, 3, 0.0f, 0.4f);
+    const VolumeMapEnd always(map, media, radius, 3);
+    const Vec3 inside(0.1f, -0.2f, 0.3f), beyond(1.8f, 0.0f, 0.0f);
+    EXPECT_NEAR(fine.optical_radius(inside), 0.5f, 1e-4f);
+    EXPECT_EQ(fine.optical_radius(beyond), 0.0f);
+    EXPECT_FALSE(fine.ends_at(inside, 2));
+    EXPECT_TRUE(fine.ends_at(inside, 3));
+    for (int vertex = 3; vertex < 12; ++vertex) EXPECT_FALSE(coarse.ends_at(inside, vertex));
+    EXPECT_TRUE(coarse.ends_at(inside, 12));
+    EXPECT_TRUE(coarse.ends_at(beyond, 3));
+    EXPECT_TRUE(always.ends_at(inside, 3));
+    EXPECT_FALSE(always.ends_at(inside, 2));
+}
+
 }  // namespace
 }  // namespace fogmap

@@ -281,11 +281,13 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
-              "in it at medium vertex 2, looked up from a grid of its photons' moments (where "
-              "more than 100 fall within its radius, within a smaller one holding about volume.k "
-              "= 50))");
-    // A radius the scene sets is kept at every lookup.
+              "in it at medium vertex 2 or the first after it where its ball spans at most "
+              "volume.gather_tau = 1.5 scattering mean free paths (by vertex 8), looked up from "
+              "a grid of its photons' moments (where more than 100 fall within its radius, within "
+              "a smaller one holding about volume.k = 50))");
+    // A radius the scene sets is kept at every lookup; gather_tau 0 ends every path at vertex 2.
     doc["volume"]["radius"] = 0.5;
+    doc["volume"]["gather_tau"] = 0;
     EXPECT_EQ(line(make_plan(scene(doc)), kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
               "in it at medium vertex 2, looked up from a grid of its photons' moments)");
@@ -337,8 +339,10 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: photon (auto: media under sun", 0), 0u)
         << line(smoke, kIntegrator);
     EXPECT_NE(line(smoke, kVolume)
-                  .find("camera paths end in it at medium vertex 3, looked up "
-                        "from a grid of its photons' moments"),
+                  .find("camera paths end in it at medium vertex 3 or the first after it "
+                        "where its ball spans at most volume.gather_tau = 1.5 scattering mean "
+                        "free paths (by vertex 12), looked up from a grid of its photons' "
+                        "moments"),
               std::string::npos)
         << line(smoke, kVolume);
     json forward = sunlit;  // the moments' series cut after l = 2 would miss too much

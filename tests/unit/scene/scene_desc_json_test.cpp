@@ -76,7 +76,7 @@ json full_scene() {
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
       "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
-                 "light_samples": 3, "gather_depth": 2},
+                 "light_samples": 3, "gather_depth": 2, "gather_tau": 0.75},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
       "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5}
     })");
@@ -141,6 +141,7 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.volume.k, 30);
     EXPECT_EQ(d.volume.radius, 0.25f);
     EXPECT_EQ(d.volume.lookups_per_ray, 5);
+    EXPECT_EQ(d.volume.gather_tau, 0.75f);
     EXPECT_EQ(d.volume.light_samples, 3);
     EXPECT_EQ(d.progressive.alpha, 0.5f);
     EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
@@ -234,8 +235,8 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     const InputError volume = parse_error(json::parse(R"({"volume": {"kk": 64}})"));
     EXPECT_EQ(volume.field, "/volume/kk");
     EXPECT_EQ(volume.reason,
-              "unknown key 'kk'; known keys: estimator, gather_depth, k, light_samples, "
-              "lookups_per_ray, radius");
+              "unknown key 'kk'; known keys: estimator, gather_depth, gather_tau, k, "
+              "light_samples, lookups_per_ray, radius");
 
     const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
     EXPECT_EQ(photons.field, "/photons/surface");
