@@ -4,6 +4,7 @@
 #include "core/ranks.h"
 #include "core/sampling.h"
 #include "core/timer.h"
+#include "core/world_range.h"
 #include "media/phase.h"
 #include "media/ray_march.h"
 #include "photon/streams.h"
@@ -405,7 +406,11 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
         return double(pairs[s][m].closed ? pairs[s][m].stop_at : attempts[s]);
     };
 
-    const uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
+    uint64_t cap = settings.max_emitted > 0 ? settings.max_emitted : 100 * largest;
+    // The volume map alone closes at settings.volume_attempts (photon_pass.h).
+    const bool volume_rule = settings.volume_attempts > 0 && open[kVolume] && !open[kGlobal] &&
+                             !open[kCaustic] && settings.volume_attempts < cap;
+    if (volume_rule) cap = settings.volume_attempts;
     Progress progress("photons", 1000, quiet);
 
     // Pilot: rounds of kFirstRound, twice that, ... attempts of every stream, kPilot in all, or
@@ -538,6 +543,10 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
         };
         reweigh(map.photons, photon_stream[m]);
         reweigh(map.beams, beam_stream);
+        if (m == kVolume && volume_rule && map.photons.size() < map.budget)
+            map.stopped = "closed after " + std::to_string(result.emitted) + " attempts (" +
+                          g_text(kVolumeAttemptsPerSample) +
+                          " per camera sample, at least its budget)";
         if (map.photons.size() < map.budget && map.stopped.empty())
             result.warnings.push_back(
                 std::string(kNames[m]) + " map: " + std::to_string(map.photons.size()) + " of " +

@@ -115,6 +115,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     // photon/photon_pass.h).
     PhotonSettings photons = desc.photons;
     photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
+    photons.volume_attempts = volume_attempts(desc);  // the volume map's share of the work
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;

@@ -1,10 +1,13 @@
 #include "scene/plan.h"
 
+#include "core/world_range.h"
 #include "media/phase.h"
 #include "scene/scene.h"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -210,6 +213,15 @@ SceneDesc choose_integrator(SceneDesc desc) {
     return desc;
 }
 
+uint64_t volume_attempts(const SceneDesc& desc) {
+    if (desc.render.integrator != Integrator::Photon || desc.volume.gather_depth <= 0 ||
+        desc.photons.max_emitted > 0)
+        return 0;
+    const double samples = double(desc.camera.width) * desc.camera.height * desc.render.spp;
+    return std::max(static_cast<uint64_t>(std::ceil(kVolumeAttemptsPerSample * samples)),
+                    desc.photons.volume);
+}
+
 Plan make_plan(const SceneDesc& scene_desc) {
     const SceneDesc desc = choose_integrator(scene_desc);
     Plan plan;
@@ -253,6 +265,10 @@ Plan make_plan(const SceneDesc& scene_desc) {
                           double(desc.volume.gather_tau), kLatestEndFactor * d);
             at += tau;
         }
+        if (const uint64_t n = volume_attempts(desc))
+            lookup += "; it closes after " + std::to_string(n) + " photon attempts (" +
+                      g_text(kVolumeAttemptsPerSample) +
+                      " per camera sample, at least its budget) if not full before";
         if (plan.volume_map) plan.volume_map.reason += "; camera paths end in it " + at + lookup;
         plan.global_map = plan.caustic_map =
             off("volume.gather_depth " + std::to_string(d) + ": camera paths trace surfaces");

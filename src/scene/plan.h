@@ -78,6 +78,11 @@ inline constexpr int kAutoGatherDepth = 3;
 /// after choose_integrator. Never throws.
 Plan make_plan(const SceneDesc& desc);
 
+/// Camera paths ending in the volume map with photons.max_emitted 0: the attempts at which the
+/// volume map closes, kVolumeAttemptsPerSample per camera sample and at least photons.volume
+/// (photon/photon_pass.h); otherwise 0 (no such rule).
+uint64_t volume_attempts(const SceneDesc& desc);
+
 /// After load_scene: the volume light's reason becomes each emitter's source and power
 /// ("medium 0: blackbody from grid 'temperature' (found in the file), 2.1 W"); when off, a medium
 /// whose file has an emission grid it does not use is named, with how to use it.

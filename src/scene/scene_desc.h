@@ -138,7 +138,14 @@ struct PhotonSettings {
     /// Not a scene key: the volume map keeps its paths' beams too (set from volume.estimator
     /// photon_beams).
     bool volume_beams = false;
+    /// Not a scene key: with the volume map the only map, it closes after this many attempts
+    /// (0 = no such rule; scene/plan.h, volume_attempts).
+    uint64_t volume_attempts = 0;
 };
+
+/// Paths ending in the volume map: photon attempts per camera sample at which the volume map
+/// closes (photon/photon_pass.h).
+inline constexpr double kVolumeAttemptsPerSample = 0.25;
 
 /// Surface global map: disc estimate, shown directly or through final gathering.
 struct GlobalGatherSettings {

@@ -190,6 +190,38 @@ TEST(PhotonPass, GlobalMapCarryingLittlePowerClosesWithTheVolumeMap) {
     EXPECT_NEAR(map_power(*r.global), map_power(*full.global), 0.06 * map_power(*full.global));
 }
 
+// Camera paths ending in the volume map (only that map is planned): it closes at
+// photons.volume_attempts attempts below its budget, says so instead of warning, and stays
+// unbiased — its total power agrees with that of a pass whose small budget fills first.
+TEST(PhotonPass, VolumeMapAloneClosesAtItsAttempts) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.2f), 2.0f));
+    add_ground(&d, 0.0f, 5000.0f, 0.5f);
+    d.media.push_back(homogeneous(Box3{Vec3(-1.0f, 0.0f, -1.0f), Vec3(1.0f, 2.0f, 1.0f)},
+                                  Color(1.0f), Color(0.1f)));
+    d.volume.gather_depth = 3;
+    d.photons.volume = 1000000;
+    d.photons.volume_attempts = 40000;
+    const auto scene = load_scene(d);
+    const PhotonPassResult r =
+        trace_photons(*scene, make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+    ASSERT_TRUE(r.volume);
+    EXPECT_FALSE(r.global || r.caustic);
+    EXPECT_EQ(r.emitted, 40000u);
+    EXPECT_GT(r.volume->photons.size(), 5000u);
+    EXPECT_EQ(r.volume->stopped,
+              "closed after 40000 attempts (0.25 per camera sample, at least its budget)");
+    EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
+
+    d.photons.volume = 5000;  // fills first
+    const PhotonPassResult full =
+        trace_photons(*scene, make_plan(photon(d)), d.photons, d.march, d.render.seed + 1, true);
+    ASSERT_TRUE(full.volume);
+    EXPECT_LT(full.emitted, 40000u);
+    EXPECT_TRUE(full.volume->stopped.empty());
+    EXPECT_NEAR(map_power(*r.volume), map_power(*full.volume), 0.06 * map_power(*full.volume));
+}
+
 // A closed room with a point light and a thin fog: the walls' interreflected light carries more
 // power than the fog scatters, so the global map fills its budget although the volume map (a
 // small budget) is full first.

@@ -284,16 +284,38 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "in it at medium vertex 2 or the first after it where its ball spans at most "
               "volume.gather_tau = 1.5 scattering mean free paths (by vertex 8), looked up from "
               "a grid of its photons' moments (where more than 100 fall within its radius, within "
-              "a smaller one holding about volume.k = 50))");
-    // A radius the scene sets is kept at every lookup; gather_tau 0 ends every path at vertex 2.
+              "a smaller one holding about volume.k = 50); it closes after 921600 photon attempts "
+              "(0.25 per camera sample, at least its budget) if not full before)");
+    // (640 × 360 pixels × 16 spp / 4.) A radius the scene sets is kept at every lookup;
+    // gather_tau 0 ends every path at vertex 2; a photons.max_emitted of the scene's own
+    // replaces the attempts rule.
     doc["volume"]["radius"] = 0.5;
     doc["volume"]["gather_tau"] = 0;
+    doc["photons"]["max_emitted"] = 2000000;
     EXPECT_EQ(line(make_plan(scene(doc)), kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
               "in it at medium vertex 2, looked up from a grid of its photons' moments)");
     EXPECT_FALSE(p.global_map.on);
     EXPECT_EQ(line(p, kCaustic),
               "caustic map: skipped (volume.gather_depth 2: camera paths trace surfaces)");
+}
+
+// The volume map's attempts rule: a quarter of the camera samples, at least the budget, and none
+// without paths ending in the map or with the scene's own max_emitted.
+TEST(Plan, VolumeAttemptsFollowTheCameraSamples) {
+    json doc = glass_floor_fog();
+    doc["volume"] = json{{"gather_depth", 3}};
+    doc["camera"]["width"] = 400;
+    doc["camera"]["height"] = 300;
+    doc["render"]["spp"] = 64;
+    EXPECT_EQ(volume_attempts(scene(doc)), 400u * 300u * 64u / 4u);
+    doc["render"]["spp"] = 2;  // 60 000 attempts: the budget instead
+    EXPECT_EQ(volume_attempts(scene(doc)), 100000u);
+    doc["photons"]["max_emitted"] = 500000;
+    EXPECT_EQ(volume_attempts(scene(doc)), 0u);
+    doc["photons"].erase("max_emitted");
+    doc["volume"]["gather_depth"] = 0;
+    EXPECT_EQ(volume_attempts(scene(doc)), 0u);
 }
 
 TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
