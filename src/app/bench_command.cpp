@@ -261,6 +261,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
             if (!runs.back().render.auto_reason.empty()) {
                 runs.back().render.integrator = Integrator::Photon;
                 runs.back().render.auto_reason.clear();
+                runs.back().render.auto_media = false;  // thin media too
             }
             runs.back().render.threads = std::min(runs.back().render.threads, thread_count(0));
         } catch (const InputError& e) {

@@ -16,6 +16,8 @@
 
 namespace fogmap {
 
+struct Scene;
+
 class Ranks;
 
 /// Checkpointing of a progressive run (render/checkpoint.h).
@@ -33,6 +35,17 @@ struct PipelineResult {
 /// The seed of iteration i (1-based), a function of the run's seed and i alone: a plain render
 /// uses the seed itself, progressive iterations independent streams derived from it.
 uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
+
+/// The median optical depth (channel average) of the camera rays through a 32 × 24 grid of the
+/// film that meet the media with depth above 0.01 (0 when none does), by midpoint sums at half
+/// each medium's voxel (homogeneous media: 256 steps across its bounds). Deterministic.
+float camera_optical_depth(const Scene& scene, const CameraDesc& camera);
+
+/// After load_scene (run_pipeline calls it): auto's choice of photon for media under sun, sky or
+/// area lights (render.auto_media) becomes the path tracer where camera_optical_depth is below
+/// kThinMediaDepth (scene/plan.h), unless progressive iterations are asked for; the reason gives
+/// the depth either way. Any other description is returned unchanged.
+SceneDesc refine_auto(SceneDesc desc, const Scene& scene);
 
 /// Runs `desc` with desc.render.threads threads (one ThreadLimit for every phase). Progress on
 /// stderr unless quiet; warnings on stderr always (and in the report). `reference` (optional)

@@ -195,6 +195,7 @@ SceneDesc choose_integrator(SceneDesc desc) {
     } else if (!desc.media.empty()) {
         // Unless the scene asks for photon beams, which gather along marched camera rays.
         desc.render.integrator = Integrator::Photon;
+        desc.render.auto_media = true;
         if (desc.volume.gather_depth == 0 && desc.volume.estimator != VolumeEstimator::PhotonBeams)
             desc.volume.gather_depth = kAutoGatherDepth;
         desc.render.auto_reason =

@@ -108,6 +108,9 @@ struct RenderSettings {
     Integrator integrator = Integrator::Auto;
     /// Not a scene key: why the integrator was chosen when the scene asked for auto.
     std::string auto_reason;
+    /// Not a scene key: auto chose photon for media under sun, sky or area lights; once the media
+    /// are loaded, thin ones go to the path tracer instead (scene/plan.h, refine_auto).
+    bool auto_media = false;
     int spp = 16;  ///< samples per pixel, >= 1
     /// Photon integrator: about how many of a pixel's spp samples look up the photon maps (0 =
     /// all). A lookup costs many times the rest of a sample, so the others only trace the camera
