@@ -18,6 +18,7 @@
 #include "scene/scene_desc_json.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -97,12 +98,16 @@ float camera_optical_depth(const Scene& scene, const CameraDesc& camera) {
                 if (m.world_bounds().empty() ||
                     !intersect_box(m.world_bounds(), ray, 0.0f, kInfinity, &t0, &t1))
                     continue;
-                const float h = m.voxel_world() > 0.0f ? 0.5f * m.voxel_world() : (t1 - t0) / 256;
-                if (!(h > 0.0f)) continue;
+                // Steps of half a voxel (256 across a homogeneous medium), at most 4096.
+                const double length = double(t1) - t0;
+                const double steps =
+                    m.voxel_world() > 0.0f ? length / (0.5 * m.voxel_world()) : 256;
+                const int n = static_cast<int>(std::clamp(std::ceil(steps), 1.0, 4096.0));
+                const double h = length / n;
                 Medium::Sampler s(m);
                 const double sigma_t = average(m.sigma_t());
-                for (float t = t0 + 0.5f * h; t < t1; t += h)
-                    tau += sigma_t * s.density(ray.at(t)) * h;
+                for (int k = 0; k < n; ++k)
+                    tau += sigma_t * h * s.density(ray.at(static_cast<float>(t0 + (k + 0.5) * h)));
             }
             if (tau > 0.01) depths.push_back(tau);
         }

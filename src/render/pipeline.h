@@ -38,7 +38,8 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 
 /// The median optical depth (channel average) of the camera rays through a 32 × 24 grid of the
 /// film that meet the media with depth above 0.01 (0 when none does), by midpoint sums at half
-/// each medium's voxel (homogeneous media: 256 steps across its bounds). Deterministic.
+/// each medium's voxel (homogeneous media: 256 steps across its bounds; at most 4096 steps per
+/// medium and ray). Deterministic.
 float camera_optical_depth(const Scene& scene, const CameraDesc& camera);
 
 /// After load_scene (run_pipeline calls it): auto's choice of photon for media under sun, sky or
