@@ -87,13 +87,16 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
 
 float camera_optical_depth(const Scene& scene, const CameraDesc& camera) {
     const Camera cam(camera);
+    std::vector<Medium::Sampler> samplers;
+    for (const Medium& m : scene.media) samplers.emplace_back(m);
     std::vector<double> depths;
     for (int j = 0; j < 24; ++j)
         for (int i = 0; i < 32; ++i) {
             const Ray ray =
                 cam.generate((i + 0.5f) * camera.width / 32.0f, (j + 0.5f) * camera.height / 24.0f);
             double tau = 0.0;
-            for (const Medium& m : scene.media) {
+            for (Medium::Sampler& s : samplers) {
+                const Medium& m = s.medium();
                 float t0, t1;
                 if (m.world_bounds().empty() ||
                     !intersect_box(m.world_bounds(), ray, 0.0f, kInfinity, &t0, &t1))
@@ -104,7 +107,6 @@ float camera_optical_depth(const Scene& scene, const CameraDesc& camera) {
                     m.voxel_world() > 0.0f ? length / (0.5 * m.voxel_world()) : 256;
                 const int n = static_cast<int>(std::clamp(std::ceil(steps), 1.0, 4096.0));
                 const double h = length / n;
-                Medium::Sampler s(m);
                 const double sigma_t = average(m.sigma_t());
                 for (int k = 0; k < n; ++k)
                     tau += sigma_t * h * s.density(ray.at(static_cast<float>(t0 + (k + 0.5) * h)));

@@ -88,16 +88,23 @@ TEST(PhotonAgreement, FogConvergesToThePathTracer) {
     check_agreement({"fog.json", 64, 36, 1024, 8, 12500, 0.06});
 }
 
-// Ratios photon / path of the mean luminance over the image, the medium's pixels (volume layers
-// of the photon film > 0.002) and the ground in the medium's shadow (direct light below half the
-// median of the lit, medium-free pixels); a region with fewer than 100 pixels gets ratio 1.
-std::array<double, 3> region_ratios(const Film& film, const Image& beauty, const Image& reference) {
-    const Image& direct = film.layer(Layer::Direct);
-    std::vector<bool> medium(reference.pixels.size());
-    std::vector<float> lit;
-    for (size_t i = 0; i < medium.size(); ++i) {
+// The medium's pixels of a layered photon film: its volume layers' luminance above 0.002.
+std::vector<bool> medium_pixels(const Film& film) {
+    std::vector<bool> medium(film.beauty.pixels.size());
+    for (size_t i = 0; i < medium.size(); ++i)
         medium[i] = luminance(film.layer(Layer::VolumeSingle).pixels[i] +
                               film.layer(Layer::VolumeMultiple).pixels[i]) > 0.002f;
+    return medium;
+}
+
+// Ratios photon / path of the mean luminance over the image, the medium's pixels (medium_pixels)
+// and the ground in the medium's shadow (direct light below half the median of the lit,
+// medium-free pixels); a region with fewer than 100 pixels gets ratio 1.
+std::array<double, 3> region_ratios(const Film& film, const Image& beauty, const Image& reference) {
+    const Image& direct = film.layer(Layer::Direct);
+    const std::vector<bool> medium = medium_pixels(film);
+    std::vector<float> lit;
+    for (size_t i = 0; i < medium.size(); ++i) {
         if (!medium[i] && luminance(direct.pixels[i]) > 0.0f)
             lit.push_back(luminance(direct.pixels[i]));
     }
@@ -291,15 +298,11 @@ TEST(PhotonAgreement, DenseSmokeEndsPathsWhereTheMapIsFineEnough) {
     o.push_back("render.spp=1");
     o.push_back("photons.volume=2000");
     const Film regions = run_pipeline(load_scene_desc(path, o), true).film;
-    std::vector<bool> medium(reference.pixels.size());
-    for (size_t i = 0; i < medium.size(); ++i)
-        medium[i] = luminance(regions.layer(Layer::VolumeSingle).pixels[i] +
-                              regions.layer(Layer::VolumeMultiple).pixels[i]) > 0.002f;
     o.resize(4);
     o.push_back("render.spp=256");
     const Image image = run_pipeline(load_scene_desc(path, o), true).film.beauty;
     const std::array<double, 3> ratio = region_ratios(regions, image, reference);
-    const double worst = worst_block(image, reference, medium);
+    const double worst = worst_block(image, reference, medium_pixels(regions));
     std::printf("worst medium block %.4f\n", worst);
     EXPECT_NEAR(ratio[1], 1.0, 0.015);
     EXPECT_NEAR(ratio[0], 1.0, 0.01);

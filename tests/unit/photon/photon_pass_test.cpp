@@ -157,17 +157,23 @@ double map_power(const StoredPhotons& map) {
     return sum * map.photon_power;
 }
 
+// A sun over a 10 km ground and a 2 × 2 × 2 box of smoke standing on it.
+SceneDesc box_over_a_wide_ground(const Color& sigma_s, const Color& sigma_a) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.2f), 2.0f));
+    add_ground(&d, 0.0f, 5000.0f, 0.5f);
+    d.media.push_back(
+        homogeneous(Box3{Vec3(-1.0f, 0.0f, -1.0f), Vec3(1.0f, 2.0f, 1.0f)}, sigma_s, sigma_a));
+    return d;
+}
+
 // A dense smoke box (optical thickness 10, albedo 0.95) over a 10 km ground under a sun: the
 // ground's indirect light (what the box scatters down) carries little of the volume map's power, so
 // the global map closes when the volume map is full, below its budget, without a "not filled"
 // warning, and stays unbiased: its total power agrees with that of a pass whose small global budget
 // fills first.
 TEST(PhotonPass, GlobalMapCarryingLittlePowerClosesWithTheVolumeMap) {
-    SceneDesc d;
-    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.2f), 2.0f));
-    add_ground(&d, 0.0f, 5000.0f, 0.5f);
-    d.media.push_back(homogeneous(Box3{Vec3(-1.0f, 0.0f, -1.0f), Vec3(1.0f, 2.0f, 1.0f)},
-                                  Color(5.0f), Color(0.25f)));
+    SceneDesc d = box_over_a_wide_ground(Color(5.0f), Color(0.25f));
     d.photons.caustic = 0;
     d.photons.volume = 200000;
     d.photons.global = 1000000;
@@ -194,11 +200,7 @@ TEST(PhotonPass, GlobalMapCarryingLittlePowerClosesWithTheVolumeMap) {
 // photons.volume_attempts attempts below its budget, says so instead of warning, and stays
 // unbiased — its total power agrees with that of a pass whose small budget fills first.
 TEST(PhotonPass, VolumeMapAloneClosesAtItsAttempts) {
-    SceneDesc d;
-    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.2f), 2.0f));
-    add_ground(&d, 0.0f, 5000.0f, 0.5f);
-    d.media.push_back(homogeneous(Box3{Vec3(-1.0f, 0.0f, -1.0f), Vec3(1.0f, 2.0f, 1.0f)},
-                                  Color(1.0f), Color(0.1f)));
+    SceneDesc d = box_over_a_wide_ground(Color(1.0f), Color(0.1f));
     d.volume.gather_depth = 3;
     d.photons.volume = 1000000;
     d.photons.volume_attempts = 40000;
