@@ -192,8 +192,15 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
                            int depth, float k, float max_tau)
-    : map_(map), radius_(radius), depth_(depth), density_(media, radius), k_(k), max_tau_(max_tau) {
-    if (!moment_grid_fits(media) || density_.nodes() == 0 || density_.cell() > 0.6f * radius)
+    : map_(map),
+      radius_(radius),
+      depth_(depth),
+      density_(media, radius),
+      phase_fits_(moment_grid_fits(media)),
+      k_(k),
+      max_tau_(max_tau) {
+    // Without moments the grid is for AdaptiveRadius's counts alone.
+    if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
         return;
     std::vector<size_t> nodes;
     for (size_t n = 0; n < density_.nodes(); ++n)
@@ -239,8 +246,9 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                     const Vec3 d = cell * Vec3(float(i), float(j), float(k)) - q;
                     if (glm::dot(d, d) > r2) continue;
                     Moments& m = moments_[s];
-                    m.m0 += c;
                     m.count += 1.0f;
+                    if (!phase_fits_) continue;  // the kd-tree's lookups want only counts
+                    m.m0 += c;
                     for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
                     for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
                 }
@@ -258,7 +266,7 @@ bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m) const 
     for (int n = 0; n < 8; ++n) {
         const float w = c.weight[n];
         *density += w * density_.node_value(c.node[n]);
-        const int32_t s = interpolates() ? slot_[c.node[n]] : -1;
+        const int32_t s = slot_.empty() ? -1 : slot_[c.node[n]];
         if (s < 0) continue;
         const Moments& q = moments_[s];
         m->count += w * q.count;
@@ -295,9 +303,14 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
         collisions = glm::max(sum, Color(0.0f)) * (map_.photon_power * kInvFourPi / volume);
     } else {
+        if (!slot_.empty()) {  // the grid's photon counts (AdaptiveRadius) without its moments
+            Moments m;
+            if (!interpolate(x, &density, &m)) return Color(0.0f);
+            if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
+        }
         collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
         if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
-        density = density_.at(x);
+        if (slot_.empty()) density = density_.at(x);
     }
     return divide(collisions, density);
 }

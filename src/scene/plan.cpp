@@ -253,7 +253,7 @@ Plan make_plan(const SceneDesc& scene_desc) {
                       ", looked up in its kd-tree (a medium's |g| above %g)",
                       double(kMomentGridMaxG));
         std::string lookup = mild ? ", looked up from a grid of its photons' moments" : kd_tree;
-        if (mild && desc.volume.radius <= 0.0f)  // render/volume_map_end.h, AdaptiveRadius
+        if (desc.volume.radius <= 0.0f)  // render/volume_map_end.h, AdaptiveRadius
             lookup += " (where more than " + std::to_string(2 * desc.volume.k) +
                       " fall within its radius, within a smaller one holding about volume.k = " +
                       std::to_string(desc.volume.k) + ")";

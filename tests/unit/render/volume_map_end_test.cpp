@@ -199,7 +199,11 @@ TEST(VolumeMapEnd, InterpolatedMomentsMatchTheComposedPhaseFunction) {
 // gathers within r (k / n)^⅓ (≈ 0.09 here) and divides by σ_s over that radius's cube: within 4
 // Poisson deviations of the mean over 100 lookups plus the smaller ball's own blur (the average
 // of exp over a ball of radius a ℓ is 3 (a cosh a − sinh a) / a³: 1.4% at a = 0.37, allowed 3%).
-// Without the table the lookups keep the radius and come out 1.6 times too bright.
+// Without the table the lookups keep the radius and come out 1.6 times too bright. The same for
+// g 0.8, whose lookups search the kd-tree and take the counts from the grid: the photons point
+// every way, so each adds f(ω_p · ω_o), of mean 1 / 4π and, for HG, second moment
+// (1 − g²)² / 2 · ((1 − g)⁻⁴ − (1 + g)⁻⁴) / 4g over (1 / 4π)² (12.7 at g 0.8), which scales the
+// deviations by its square root.
 TEST(VolumeMapEnd, ManyPhotonsInTheBallGatherWithinASmallerRadius) {
     const int count = 1000000;
     const float depth_scale = 0.25f, k = 100.0f;
@@ -217,31 +221,39 @@ TEST(VolumeMapEnd, ManyPhotonsInTheBallGatherWithinASmallerRadius) {
     map.tree = KdTree<Photon>(std::move(photons));
     map.photon_power = 0.001f;
     const Color sigma_s(2.0f, 1.0f, 0.5f);
-    const std::vector<Medium> media{Medium::homogeneous(
-        {sigma_s, Color(0.1f), 0.0f}, Box3{Vec3(0.0f, -2.0f, -2.0f), Vec3(4.0f, 2.0f, 2.0f)})};
     const float radius = 1.0f, x0 = 0.6f;
-    const SigmaTable table(media, 2.0f * radius);
-    const PhaseMix phase(0.0f);
-    NeighborList scratch;
     // Photons per unit volume at depth x0 (the depth pdf over the 4 × 4 cross-section).
     const double rho = count * std::exp(-x0 / depth_scale) / depth_scale / 16.0;
-    const auto mean_ratio = [&](const VolumeMapEnd& end) {
-        Color sum(0.0f);
-        for (int i = 0; i < 10; ++i)
-            for (int j = 0; j < 10; ++j) {
-                const Vec3 x(x0, -0.9f + 0.2f * i, -0.9f + 0.2f * j);  // balls 0.2 apart
-                sum += end.inscattered(x, Vec3(0.0f, 0.0f, 1.0f), phase, scratch);
-            }
-        return sum / (100.0f * float(rho * map.photon_power * kInvFourPi) / sigma_s);
-    };
-    VolumeMapEnd end(map, media, radius, 3, k);
-    ASSERT_TRUE(end.wants_table());
-    end.set_table(&table);
-    const Color adaptive = mean_ratio(end);
-    const double tolerance = 4.0 / std::sqrt(100.0 * k) + 0.03;
-    for (int c = 0; c < 3; ++c) EXPECT_NEAR(adaptive[c], 1.0, tolerance) << "channel " << c;
-    const Color fixed = mean_ratio(VolumeMapEnd(map, media, radius, 3));
-    EXPECT_GT(fixed.x, 1.4f);  // the blur the adaptive radius removes
+    NeighborList scratch;
+    for (const float g : {0.0f, 0.8f}) {
+        SCOPED_TRACE("g " + std::to_string(g));
+        const std::vector<Medium> media{Medium::homogeneous(
+            {sigma_s, Color(0.1f), g}, Box3{Vec3(0.0f, -2.0f, -2.0f), Vec3(4.0f, 2.0f, 2.0f)})};
+        const SigmaTable table(media, 2.0f * radius);
+        const PhaseMix phase(g);
+        const auto mean_ratio = [&](const VolumeMapEnd& end) {
+            Color sum(0.0f);
+            for (int i = 0; i < 10; ++i)
+                for (int j = 0; j < 10; ++j) {
+                    const Vec3 x(x0, -0.9f + 0.2f * i, -0.9f + 0.2f * j);  // balls 0.2 apart
+                    sum += end.inscattered(x, Vec3(0.0f, 0.0f, 1.0f), phase, scratch);
+                }
+            return sum / (100.0f * float(rho * map.photon_power * kInvFourPi) / sigma_s);
+        };
+        VolumeMapEnd end(map, media, radius, 3, k);
+        EXPECT_EQ(end.interpolates(), g == 0.0f);
+        ASSERT_TRUE(end.wants_table());
+        end.set_table(&table);
+        const Color adaptive = mean_ratio(end);
+        const double second_moment =
+            g == 0.0f ? 1.0
+                      : (1.0 - g * g) * (1.0 - g * g) / 2.0 *
+                            (std::pow(1.0 - g, -4.0) - std::pow(1.0 + g, -4.0)) / (4.0 * g);
+        const double tolerance = 4.0 * std::sqrt(second_moment / (100.0 * k)) + 0.03;
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(adaptive[c], 1.0, tolerance) << "channel " << c;
+        const Color fixed = mean_ratio(VolumeMapEnd(map, media, radius, 3));
+        EXPECT_GT(fixed.x, 1.4f);  // the blur the adaptive radius removes
+    }
 }
 
 // FineEnough: inside a homogeneous medium the ball spans σ_s r scattering mean free paths (the
