@@ -146,7 +146,7 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
 }
 
 // A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
-// volume map (the path's end->depth()-th medium vertex) or a phase (or guide) sampled direction
+// volume map (VolumeMapEnd::ends_at) or a phase (or guide) sampled direction
 // for p. False: the path ends here.
 bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
     if (p.depth >= max_depth_) {
@@ -155,7 +155,7 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     }
     ++p.depth;
     const PhaseMix phase(ts.media, x);
-    if (end_ && end_->ends_at(x, ++p.medium_vertices)) {
+    if (end_ && end_->ends_at(x, ++p.gather_vertices)) {
         // Direct light by a shadow ray, the rest from the map; the path ends here.
         *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
         *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
@@ -287,8 +287,9 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
             const Vec3 wi = sample_cosine_hemisphere(n, u);
             p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
             p.env_pdf = kInvFourPi;  // the environment's uniform light sample
-            p.beta *= mat.albedo;  // f cos / pdf = albedo
+            p.beta *= mat.albedo;    // f cos / pdf = albedo
             p.specular = false;
+            ++p.gather_vertices;
             p.ray = Ray{offset(hit->p, n), wi};
         }
         p.prev_p = hit->p;

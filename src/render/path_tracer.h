@@ -35,7 +35,8 @@ namespace fogmap {
 class PathTracer {
 public:
     /// `guide` (may be null): scattering directions in media guided by the volume photon map;
-    /// `end` (may be null): paths end in the volume map at their end->depth()-th medium vertex.
+    /// `end` (may be null): paths end in the volume map at a medium vertex that is their
+    /// end->depth()-th vertex in media and on diffuse surfaces.
     PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr,
                const VolumeMapEnd* end = nullptr);
 
@@ -58,11 +59,15 @@ private:
     struct Path {
         Ray ray;
         Color beta{1.0f};
-        bool specular = true;  ///< the last vertex was the camera or a specular bounce: no MIS
+        bool specular = true;   ///< the last vertex was the camera or a specular bounce: no MIS
         float prev_pdf = 0.0f;  ///< of the direction sampled at the last vertex
         float env_pdf = 0.0f;   ///< the environment's light-sample pdf of that direction there
         Vec3 prev_p{0.0f};
-        int depth = 0, medium_vertices = 0;
+        int depth = 0;
+        /// Scattering vertices in media and on diffuse surfaces: a path ends in the volume map
+        /// at a medium vertex that makes them volume.gather_depth (a diffuse bounce blurs the
+        /// map as a medium's scattering does; specular bounces do not count).
+        int gather_vertices = 0;
     };
     /// The path's next segment by ratio_track_pick: both the picked medium vertex and what lies
     /// behind (the point lights' segment estimate and the media's emission included).

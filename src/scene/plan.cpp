@@ -203,7 +203,7 @@ SceneDesc choose_integrator(SceneDesc desc) {
                 ? "auto: media under sun, sky or area lights, with the photon beams the scene asks "
                   "for"
                 : "auto: media under sun, sky or area lights; camera paths that end in the volume "
-                  "map at medium vertex " +
+                  "map at vertex " +
                       std::to_string(desc.volume.gather_depth) +
                       " measured 1.3-4x lower error than the path tracer at equal time "
                       "(smoke.json, smoke1 and the Disney cloud over a 10 km ground)";
@@ -257,7 +257,8 @@ Plan make_plan(const SceneDesc& scene_desc) {
             lookup += " (where more than " + std::to_string(2 * desc.volume.k) +
                       " fall within its radius, within a smaller one holding about volume.k = " +
                       std::to_string(desc.volume.k) + ")";
-        std::string at = "at medium vertex " + std::to_string(d);
+        std::string at = "at the medium vertex that is their vertex " + std::to_string(d) +
+                         " (diffuse bounces count)";
         if (desc.volume.gather_tau > 0.0f) {  // render/volume_map_end.h, FineEnough
             char tau[160];
             std::snprintf(tau, sizeof tau,

@@ -69,7 +69,7 @@ struct Plan {
 /// (render.auto_reason). Never throws.
 SceneDesc choose_integrator(SceneDesc desc);
 
-/// The medium vertex at which auto's camera paths end in the volume map: 3 beat 2 on smoke1 and
+/// The vertex at which auto's camera paths end in the volume map: 3 beat 2 on smoke1 and
 /// the Disney cloud (relMSE 0.70 and 0.30 of the path tracer's at 1 s against 0.78 and 0.51) and
 /// tied on smoke.json (0.58 against 0.56).
 inline constexpr int kAutoGatherDepth = 3;

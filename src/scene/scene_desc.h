@@ -191,13 +191,14 @@ struct VolumeGatherSettings {
     /// and end at the D-th in the volume map (render/volume_map_end.h), within the radius at
     /// which the median photon has k neighbours; surfaces are path traced (no surface maps).
     int gather_depth = 0;
-    /// gather_depth >= 1: a path ends at its D-th medium vertex or the first after it where the
+    /// gather_depth >= 1: a path ends at the medium vertex that is its D-th scattering vertex
+    /// (diffuse surface bounces count) or the first after it where the
     /// map's ball spans at most this many scattering mean free paths (σ̄_s r <= gather_tau), by
     /// vertex 4D at the latest; 0 = always at the D-th (render/volume_map_end.h, FineEnough).
     float gather_tau = 1.5f;
 };
 
-/// volume.gather_tau > 0: a path ends by its medium vertex kLatestEndFactor × gather_depth.
+/// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
 inline constexpr int kLatestEndFactor = 4;
 
 /// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0

@@ -281,8 +281,9 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
-              "in it at medium vertex 2 or the first after it where its ball spans at most "
-              "volume.gather_tau = 1.5 scattering mean free paths (by vertex 8), looked up from "
+              "in it at the medium vertex that is their vertex 2 (diffuse bounces count) or the "
+              "first after it where its ball spans at most volume.gather_tau = 1.5 scattering mean "
+              "free paths (by vertex 8), looked up from "
               "a grid of its photons' moments (where more than 100 fall within its radius, within "
               "a smaller one holding about volume.k = 50); it closes after 921600 photon attempts "
               "(0.25 per camera sample, at least its budget) if not full before)");
@@ -294,7 +295,8 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     doc["photons"]["max_emitted"] = 2000000;
     EXPECT_EQ(line(make_plan(scene(doc)), kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
-              "in it at medium vertex 2, looked up from a grid of its photons' moments)");
+              "in it at the medium vertex that is their vertex 2 (diffuse bounces count), looked "
+              "up from a grid of its photons' moments)");
     EXPECT_FALSE(p.global_map.on);
     EXPECT_EQ(line(p, kCaustic),
               "caustic map: skipped (volume.gather_depth 2: camera paths trace surfaces)");
@@ -361,7 +363,8 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     EXPECT_EQ(line(smoke, kIntegrator).rfind("integrator: photon (auto: media under sun", 0), 0u)
         << line(smoke, kIntegrator);
     EXPECT_NE(line(smoke, kVolume)
-                  .find("camera paths end in it at medium vertex 3 or the first after it "
+                  .find("camera paths end in it at the medium vertex that is their vertex 3 "
+                        "(diffuse bounces count) or the first after it "
                         "where its ball spans at most volume.gather_tau = 1.5 scattering mean "
                         "free paths (by vertex 12), looked up from a grid of its photons' "
                         "moments"),
