@@ -27,8 +27,7 @@ struct GatherParams {
     VolumeEstimator estimator = VolumeEstimator::Sphere;
     int lookups_per_ray = 8;  ///< volume-map lookups per camera segment; 0 = every step
     int light_samples = 4;  ///< single-scattering shadow rays per light and segment; 0 = every step
-    int gather_depth =
-        0;  ///< > 0: camera paths end in the volume map at this vertex (diffuse bounces count)
+    int gather_depth = 0;  ///< > 0: paths end in the volume map at this vertex (diffuse ones count)
 };
 
 /// Iteration 1's gather. Radii the scene leaves at 0 default to 2% (global) and 1% (caustic) of

@@ -146,8 +146,8 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
 }
 
 // A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
-// volume map (VolumeMapEnd::ends_at) or a phase (or guide) sampled direction
-// for p. False: the path ends here.
+// volume map (VolumeMapEnd::ends_at) or a phase (or guide) sampled direction for p. False: the
+// path ends here.
 bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
     if (p.depth >= max_depth_) {
         ++ts.capped;

@@ -88,8 +88,8 @@ class VolumeMapEnd {
 public:
     /// `map`: the volume map (photons after their first interaction), gathered within `radius`;
     /// paths end at a medium vertex that is their `depth`-th vertex (>= 1; diffuse surfaces
-    /// count), or later where the ball spans more
-    /// than `max_tau` > 0 scattering mean free paths (see FineEnough below).
+    /// count), or later where the ball spans more than `max_tau` > 0 scattering mean free paths
+    /// (see FineEnough below).
     /// With k > 0 and a table (set_table), lookups where the grid's ball holds more than 2k
     /// photons gather within a smaller radius instead (see AdaptiveRadius below).
     VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius, int depth,

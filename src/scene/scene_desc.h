@@ -187,14 +187,15 @@ struct VolumeGatherSettings {
     /// sampling, combined by the balance heuristic); 0 = a shadow ray at every step.
     int light_samples = 4;
     /// Photon integrator: 0 = camera rays march and see the volume map directly; D >= 1 = camera
-    /// paths are traced as the path tracer traces them through D scattering vertices in media
-    /// and end at the D-th in the volume map (render/volume_map_end.h), within the radius at
-    /// which the median photon has k neighbours; surfaces are path traced (no surface maps).
+    /// paths are traced as the path tracer traces them through D scattering vertices (in media
+    /// and on diffuse surfaces) and end in the volume map at a medium vertex, the D-th or later
+    /// (render/volume_map_end.h), within the radius at which the median photon has k
+    /// neighbours; surfaces are path traced (no surface maps).
     int gather_depth = 0;
     /// gather_depth >= 1: a path ends at the medium vertex that is its D-th scattering vertex
-    /// (diffuse surface bounces count) or the first after it where the
-    /// map's ball spans at most this many scattering mean free paths (σ̄_s r <= gather_tau), by
-    /// vertex 4D at the latest; 0 = always at the D-th (render/volume_map_end.h, FineEnough).
+    /// (diffuse surface bounces count) or the first after it where the map's ball spans at most
+    /// this many scattering mean free paths (σ̄_s r <= gather_tau), by vertex 4D at the latest; 0 =
+    /// always at the D-th (render/volume_map_end.h, FineEnough).
     float gather_tau = 1.5f;
 };
 
