@@ -287,12 +287,14 @@ float VolumeMapEnd::optical_radius(const Vec3& x) const {
 
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                                 NeighborList& scratch) const {
+    // σ̄_s and the photon counts from the grid (its moments too where it holds them).
+    Color density(0.0f);
+    Moments m;
+    if (!interpolate(x, &density, &m)) return Color(0.0f);
+    if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
-    Color collisions(0.0f), density(0.0f);
+    Color collisions(0.0f);
     if (interpolates()) {
-        Moments m;
-        if (!interpolate(x, &density, &m)) return Color(0.0f);
-        if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
         // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
         const Vec3 o = -dir;
         const Color s1 = o.x * m.m1[0] + o.y * m.m1[1] + o.z * m.m1[2];
@@ -303,14 +305,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
         collisions = glm::max(sum, Color(0.0f)) * (map_.photon_power * kInvFourPi / volume);
     } else {
-        if (!slot_.empty()) {  // the grid's photon counts (AdaptiveRadius) without its moments
-            Moments m;
-            if (!interpolate(x, &density, &m)) return Color(0.0f);
-            if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
-        }
         collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
-        if (!(max_component(collisions) > 0.0f)) return Color(0.0f);
-        if (slot_.empty()) density = density_.at(x);
     }
     return divide(collisions, density);
 }
