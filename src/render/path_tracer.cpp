@@ -40,8 +40,8 @@ struct PathTracer::Lobe {
 };
 
 PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide,
-                       const VolumeMapEnd* end)
-    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end) {
+                       const VolumeMapEnd* end, const SunShadows* sun)
+    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end), sun_(sun) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
@@ -107,7 +107,8 @@ Color PathTracer::point_lights_in_segment(const Ray& ray, float t_max, Rng& rng,
 
 Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const {
     Color sum(0.0f);
-    for (const Light& light : scene_.lights) {
+    for (size_t li = 0; li < scene_.lights.size(); ++li) {
+        const Light& light = scene_.lights[li];
         // Point and spot lights reach medium vertices through point_lights_in_segment.
         if (lobe.phase && (light.type == LightType::Point || light.type == LightType::Spot))
             continue;
@@ -135,8 +136,16 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
             lobe_pdf = cos * kInvPi;
             f = lobe.albedo * lobe_pdf;
         }
-        const Color T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi},
-                                             s.dist * (1.0f - 1e-4f), rng, &ts.rays);
+        Color T;
+        if (sun_ && sun_->covers(li)) {
+            ++ts.rays;
+            T = scene_.surfaces && scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist)
+                    ? Color(0.0f)
+                    : sun_->transmittance(li, origin);
+        } else {
+            T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f),
+                                     rng, &ts.rays);
+        }
         if (max_component(T) <= 0.0f) continue;
         // A path that ends here has no phase-sampled ray to take the rest of the MIS weight.
         const float w = light.is_delta() || lobe.last ? 1.0f : power_heuristic(s.pdf, lobe_pdf);
@@ -299,8 +308,8 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
 }
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide, const VolumeMapEnd* end) {
-    const PathTracer tracer(scene, settings.max_depth, guide, end);
+                 const VolumeGuide* guide, const VolumeMapEnd* end, const SunShadows* sun) {
+    const PathTracer tracer(scene, settings.max_depth, guide, end, sun);
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed,
         TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,

@@ -17,11 +17,14 @@
 // sky behind with the walk's transmittance. That removes the camera ray's scatter-or-pass-through
 // coin (smoke.json, D 3, 64 spp: relMSE −13% for +7.5% CPU time; smoke1 over a 10 km ground
 // −11%, the Disney cloud −2%); the plain path tracer keeps delta tracking (the two branches cost
-// it 15% time for 7% less error).
+// it 15% time for 7% less error). The photon integrator also passes its SunShadows: shadow rays to
+// a sun then take the media's transmittance from a grid of optical depth along it
+// (render/sun_shadows.h; surfaces still occlude), which the plain path tracer never does.
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
 #include "render/film.h"
+#include "render/sun_shadows.h"
 #include "render/volume_guide.h"
 #include "render/volume_map_end.h"
 #include "scene/scene.h"
@@ -36,9 +39,10 @@ class PathTracer {
 public:
     /// `guide` (may be null): scattering directions in media guided by the volume photon map;
     /// `end` (may be null): paths end in the volume map at a medium vertex that is their
-    /// end->depth()-th vertex in media and on diffuse surfaces.
+    /// end->depth()-th vertex in media and on diffuse surfaces; `sun` (may be null): shadow rays
+    /// to the suns it covers read its grids.
     PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr,
-               const VolumeMapEnd* end = nullptr);
+               const VolumeMapEnd* end = nullptr, const SunShadows* sun = nullptr);
 
     /// Per-thread mutable state: medium samplers and counters. One per task.
     struct ThreadState {
@@ -87,6 +91,7 @@ private:
     int max_depth_;
     const VolumeGuide* guide_;
     const VolumeMapEnd* end_;
+    const SunShadows* sun_;
     bool has_point_lights_ = false;
     bool emissive_ = false;
     bool camera_pick_ = false;  ///< some medium emits: camera paths collect σ_a L_e
@@ -96,6 +101,7 @@ private:
 /// settings.max_depth (the worker count is the caller's ThreadLimit), guided by `guide` and paths
 /// ended by `end` when given. An unlayered film. Progress on stderr unless quiet.
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide = nullptr, const VolumeMapEnd* end = nullptr);
+                 const VolumeGuide* guide = nullptr, const VolumeMapEnd* end = nullptr,
+                 const SunShadows* sun = nullptr);
 
 }  // namespace fogmap

@@ -182,6 +182,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
     std::optional<SigmaTable> sigma_table;  // map_end: σ_s over boxes, for every iteration
+    std::optional<SunShadows> sun_shadows;  // map_end: the suns' optical depth, every iteration
     // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
     // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the
     // `base` iterations of the checkpoint resumed from.
@@ -316,9 +317,11 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                             end->set_table(&*sigma_table);
                         }
                     }
+                    if (!sun_shadows)
+                        sun_shadows.emplace(scene->lights, scene->media, desc.volume.sun_grid);
                     add_phase(&report, "precompute", precompute.seconds());
                     film = render_path(*scene, settings, quiet_pass, &stats, nullptr,
-                                       end ? &*end : nullptr);
+                                       end ? &*end : nullptr, &*sun_shadows);
                 } else {
                     double precompute_s = 0.0;
                     film = render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,

@@ -100,11 +100,22 @@ PlanItem plan_marching(const SceneDesc& desc) {
     // march.method picks how photons find free paths (photon beams need exact ones: delta
     // tracking); camera rays of this integrator march unless they end in the volume map.
     const char* how = "";
-    if (desc.volume.gather_depth > 0)
+    if (desc.volume.gather_depth > 0) {
+        // render/sun_shadows.h: only when every medium is a grid.
+        bool sun = false, grids = desc.volume.sun_grid > 0.0f;
+        for (const LightDesc& l : desc.lights) sun = sun || l.type == LightType::Sun;
+        for (const MediumDesc& m : desc.media) grids = grids && m.type == MediumType::Vdb;
+        const std::string sun_shadows =
+            sun && grids ? ", take the sun's transmittance from a grid of optical depth along it "
+                           "(nodes volume.sun_grid = " +
+                               g_text(desc.volume.sun_grid) +
+                               (desc.volume.sun_grid == 1.0f ? " voxel" : " voxels") + " apart)"
+                         : "";
         return on(count(desc.media.size(), "medium", "media") + "; photon free paths " +
                   (desc.march.method == FreePathMethod::March ? "march" : "use delta tracking") +
-                  ", camera paths use ratio tracking (first segment) and delta tracking and "
-                  "end in the volume map");
+                  ", camera paths use ratio tracking (first segment) and delta tracking" +
+                  sun_shadows + " and end in the volume map");
+    }
     if (desc.volume.estimator == VolumeEstimator::PhotonBeams)
         return on(count(desc.media.size(), "medium", "media") +
                   "; camera rays march, photon free paths use delta tracking (photon beams)");

@@ -192,6 +192,7 @@ void volume_fields(G& g, V& v) {
     v.value("light_samples", g.light_samples);
     v.value("gather_depth", g.gather_depth);
     v.value("gather_tau", g.gather_tau);
+    v.value("sun_grid", g.sun_grid);
 }
 
 template <class M, class V>

@@ -518,6 +518,7 @@ void check_gather(const SceneDesc& desc) {
         k.int_range("light_samples", v.light_samples, 0, 4096);
         k.int_range("gather_depth", v.gather_depth, 0, 1000);
         k.non_negative("gather_tau", v.gather_tau);
+        k.non_negative("sun_grid", v.sun_grid);
         if (v.gather_depth > 0 && v.estimator == VolumeEstimator::PhotonBeams)
             k.fail("estimator",
                    "\"photon_beams\" gathers along camera rays, which gather_depth " +

@@ -287,6 +287,24 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "a grid of its photons' moments (where more than 100 fall within its radius, within "
               "a smaller one holding about volume.k = 50); it closes after 921600 photon attempts "
               "(0.25 per camera sample, at least its budget) if not full before)");
+    // A sun over VDB media: its shadow rays read the optical depth along it from a grid
+    // (render/sun_shadows.h); volume.sun_grid 0, or a homogeneous medium, keeps ratio tracking.
+    json sunny = smoke_only();
+    sunny["lights"].push_back(json{{"type", "sun"}, {"direction", {0, -1, 0}}, {"irradiance", 3}});
+    sunny["volume"] = json{{"gather_depth", 3}};
+    EXPECT_EQ(line(make_plan(scene(sunny)), kMarching),
+              "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
+              "tracking (first segment) and delta tracking, take the sun's transmittance from a "
+              "grid of optical depth along it (nodes volume.sun_grid = 1 voxel apart) and end in "
+              "the volume map)");
+    sunny["volume"]["sun_grid"] = 2.5;
+    EXPECT_NE(line(make_plan(scene(sunny)), kMarching).find("volume.sun_grid = 2.5 voxels apart"),
+              std::string::npos);
+    sunny["volume"]["sun_grid"] = 0;
+    EXPECT_EQ(line(make_plan(scene(sunny)), kMarching).find("sun"), std::string::npos);
+    json homogeneous = doc;
+    homogeneous["lights"] = sunny["lights"];
+    EXPECT_EQ(line(make_plan(scene(homogeneous)), kMarching).find("sun"), std::string::npos);
     // (640 × 360 pixels × 16 spp / 4.) A radius the scene sets is kept at every lookup;
     // gather_tau 0 ends every path at vertex 2; a photons.max_emitted of the scene's own
     // replaces the attempts rule.

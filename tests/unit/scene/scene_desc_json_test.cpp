@@ -76,7 +76,7 @@ json full_scene() {
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
       "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
-                 "light_samples": 3, "gather_depth": 2, "gather_tau": 0.75},
+                 "light_samples": 3, "gather_depth": 2, "gather_tau": 0.75, "sun_grid": 2.5},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
       "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5}
     })");
@@ -142,6 +142,7 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.volume.radius, 0.25f);
     EXPECT_EQ(d.volume.lookups_per_ray, 5);
     EXPECT_EQ(d.volume.gather_tau, 0.75f);
+    EXPECT_EQ(d.volume.sun_grid, 2.5f);
     EXPECT_EQ(d.volume.light_samples, 3);
     EXPECT_EQ(d.progressive.alpha, 0.5f);
     EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
@@ -236,7 +237,7 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     EXPECT_EQ(volume.field, "/volume/kk");
     EXPECT_EQ(volume.reason,
               "unknown key 'kk'; known keys: estimator, gather_depth, gather_tau, k, "
-              "light_samples, lookups_per_ray, radius");
+              "light_samples, lookups_per_ray, radius, sun_grid");
 
     const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
     EXPECT_EQ(photons.field, "/photons/surface");
@@ -593,6 +594,8 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "step_world must be finite and >= 0; found -0.1"},
         {R"({"volume": {"light_samples": -1}})", "/volume/light_samples",
          "light_samples must be in [0, 4096]; found -1"},
+        {R"({"volume": {"sun_grid": -0.5}})", "/volume/sun_grid",
+         "sun_grid must be finite and >= 0; found -0.5"},
         {R"({"progressive": {"alpha": 1}})", "/progressive/alpha",
          "alpha must be in (0, 1); found 1"},
         {R"({"progressive": {"iterations": -2}})", "/progressive/iterations",

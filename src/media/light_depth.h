@@ -1,0 +1,45 @@
+#pragma once
+// Optical depth towards a distant light, tabulated once per render: a grid aligned with the
+// light (columns along the direction towards it, nodes `spacing` apart on all three axes) over a
+// medium's world bounds, each column a running sum of the density from the light's side (the
+// density at each step's midpoint: one lookup per node). depth(x) interpolates it trilinearly:
+// ∫ density ds from x towards the light, so the transmittance of medium m is exp(−σ_t,m · depth).
+// Its error is the interpolation's between columns, h² τ''/8 (0.3% of the largest depth of a
+// smooth puff at a spacing of one voxel; two Gauss–Legendre points per step instead of the
+// midpoint gave the same). The photon integrator's camera paths take the sun's shadow rays from
+// it (render/sun_shadows.h): a ratio-tracked shadow ray walks the plume, this is eight loads.
+// Thread-safety: immutable after construction; depth() is safe from any thread.
+
+#include "core/math.h"
+#include "media/medium.h"
+
+#include <cstddef>
+#include <vector>
+
+namespace fogmap {
+
+class LightDepth {
+public:
+    /// Tabulates `medium` (a grid medium) towards unit direction `to_light`, nodes `spacing`
+    /// world units apart; the spacing grows (×1.26 steps) until at most `max_nodes` nodes are
+    /// needed. Parallel over columns; deterministic.
+    LightDepth(const Medium& medium, const Vec3& to_light, float spacing,
+               size_t max_nodes = size_t(1) << 25);
+
+    /// ∫ density ds from x towards the light (density × world length): 0 where the ray misses
+    /// the medium's bounds.
+    float depth(const Vec3& x) const;
+
+    float spacing() const { return h_; }
+    size_t nodes() const { return depth_.size(); }
+    size_t bytes() const { return depth_.size() * sizeof(float); }
+
+private:
+    Vec3 u_{0.0f}, v_{0.0f}, w_{0.0f};  ///< light-space axes (w towards the light)
+    Vec3 origin_{0.0f};                 ///< world position of node (0, 0, 0)
+    float h_ = 0.0f;
+    int n_[3] = {0, 0, 0};
+    std::vector<float> depth_;  ///< column-major: ((j * n_[0] + i) * n_[2] + k)
+};
+
+}  // namespace fogmap

@@ -1,0 +1,40 @@
+#include "render/sun_shadows.h"
+
+#include <cmath>
+
+namespace fogmap {
+
+SunShadows::SunShadows(const std::vector<Light>& lights, const std::vector<Medium>& media,
+                       float spacing_voxels) {
+    if (!(spacing_voxels > 0.0f) || media.empty()) return;
+    for (const Medium& m : media)
+        if (!m.grid()) return;
+    for (const Medium& m : media) sigma_t_.push_back(m.sigma_t());
+    grids_.resize(lights.size());
+    for (size_t i = 0; i < lights.size(); ++i) {
+        if (lights[i].type != LightType::Sun) continue;
+        for (const Medium& m : media)
+            grids_[i].emplace_back(m, -lights[i].direction, spacing_voxels * m.voxel_world());
+    }
+}
+
+Color SunShadows::transmittance(size_t i, const Vec3& x) const {
+    Color tau(0.0f);
+    for (size_t m = 0; m < grids_[i].size(); ++m) tau += grids_[i][m].depth(x) * sigma_t_[m];
+    return Color(std::exp(-tau.x), std::exp(-tau.y), std::exp(-tau.z));
+}
+
+size_t SunShadows::grids() const {
+    size_t n = 0;
+    for (const auto& g : grids_) n += g.size();
+    return n;
+}
+
+size_t SunShadows::bytes() const {
+    size_t n = 0;
+    for (const auto& g : grids_)
+        for (const LightDepth& d : g) n += d.bytes();
+    return n;
+}
+
+}  // namespace fogmap
