@@ -23,8 +23,7 @@ public:
     /// Tabulates `medium` (a grid medium) towards unit direction `to_light`, nodes `spacing`
     /// world units apart; the spacing grows (×1.26 steps) until at most `max_nodes` nodes are
     /// needed. Parallel over columns; deterministic.
-    LightDepth(const Medium& medium, const Vec3& to_light, float spacing,
-               size_t max_nodes = size_t(1) << 25);
+    LightDepth(const Medium& medium, const Vec3& to_light, float spacing, size_t max_nodes);
 
     /// ∫ density ds from x towards the light (density × world length): 0 where the ray misses
     /// the medium's bounds.

@@ -1,5 +1,6 @@
 #include "render/sun_shadows.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace fogmap {
@@ -9,12 +10,20 @@ SunShadows::SunShadows(const std::vector<Light>& lights, const std::vector<Mediu
     if (!(spacing_voxels > 0.0f) || media.empty()) return;
     for (const Medium& m : media)
         if (!m.grid()) return;
+    const auto small_sun = [](const Light& l) {
+        return l.type == LightType::Sun && l.sun_one_minus_cos <= kSunGridMaxOneMinusCos;
+    };
+    size_t suns = 0;
+    for (const Light& l : lights) suns += small_sun(l) ? 1 : 0;
+    if (suns == 0) return;
     for (const Medium& m : media) sigma_t_.push_back(m.sigma_t());
     grids_.resize(lights.size());
+    const size_t budget = std::max(kSunGridMaxNodes / (suns * media.size()), size_t(64));
     for (size_t i = 0; i < lights.size(); ++i) {
-        if (lights[i].type != LightType::Sun) continue;
+        if (!small_sun(lights[i])) continue;
         for (const Medium& m : media)
-            grids_[i].emplace_back(m, -lights[i].direction, spacing_voxels * m.voxel_world());
+            grids_[i].emplace_back(m, -lights[i].direction, spacing_voxels * m.voxel_world(),
+                                   budget);
     }
 }
 

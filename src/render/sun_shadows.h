@@ -17,10 +17,17 @@
 
 namespace fogmap {
 
+/// Suns wider than 1° keep their walks: the grid sees the sun's disc as its centre direction,
+/// and a penumbra that wide is not a voxel's blur.
+inline constexpr float kSunGridMaxOneMinusCos = 1.5230867e-4f;  // 1 − cos 1°
+/// Nodes of all grids together (128 MB); each grid grows its spacing to fit its share.
+inline constexpr size_t kSunGridMaxNodes = size_t(1) << 25;
+
 class SunShadows {
 public:
-    /// Grids for every sun light over every medium, nodes `spacing_voxels` × the medium's voxel
-    /// apart; covers nothing when a medium has no grid or spacing_voxels <= 0.
+    /// Grids for every sun light of angular radius up to 1° over every medium, nodes
+    /// `spacing_voxels` × the medium's voxel apart (or more, to fit kSunGridMaxNodes); covers
+    /// nothing when a medium has no grid or spacing_voxels <= 0.
     SunShadows(const std::vector<Light>& lights, const std::vector<Medium>& media,
                float spacing_voxels);
 

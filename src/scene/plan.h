@@ -62,7 +62,7 @@ struct Plan {
 /// - photon with camera paths ending in the volume map (volume.gather_depth kAutoGatherDepth,
 ///   unless the scene sets a depth or asks for photon beams) for any other scene with media:
 ///   smoke and clouds under sun, sky or area lights (smoke.json, smoke1 and the Disney cloud
-///   over a 10 km ground: 1.3-4x lower error than the path tracer at equal time, 2 to 11 s,
+///   over a 10 km ground: 1.7-3.6x lower error than the path tracer at equal time, 1 to 11 s,
 ///   where the photon maps seen from the camera had up to 3x higher);
 /// - path when there is no medium.
 /// `desc` unchanged when its integrator is not auto; else a copy with the choice and its reason

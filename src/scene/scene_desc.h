@@ -197,9 +197,9 @@ struct VolumeGatherSettings {
     /// this many scattering mean free paths (σ̄_s r <= gather_tau), by vertex 4D at the latest; 0 =
     /// always at the D-th (render/volume_map_end.h, FineEnough).
     float gather_tau = 1.5f;
-    /// gather_depth >= 1: the camera paths' shadow rays to a sun read the media's optical depth
-    /// along it from a grid with nodes this many voxels apart (render/sun_shadows.h; built once
-    /// per render when every medium is a grid); 0 = ratio-tracked shadow rays.
+    /// gather_depth >= 1: the camera paths' shadow rays to a sun (up to 1° wide) read the media's
+    /// optical depth along it from a grid with nodes this many voxels apart (render/sun_shadows.h;
+    /// built once per render when every medium is a grid); 0 = ratio-tracked shadow rays.
     float sun_grid = 1.0f;
 };
 

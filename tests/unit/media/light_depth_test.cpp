@@ -48,7 +48,7 @@ struct DepthError {
 
 // Random points in the medium's box grown by half its size on every side; nodes `spacing` apart.
 DepthError compare(const Medium& medium, const Vec3& to_light, float spacing) {
-    const LightDepth grid(medium, to_light, spacing);
+    const LightDepth grid(medium, to_light, spacing, size_t(1) << 25);
     Medium::Sampler sampler(medium);
     const Box3& box = medium.world_bounds();
     const Vec3 extent = box.extent(), lo = box.lo - 0.5f * extent;
@@ -129,6 +129,14 @@ TEST(SunShadows, TransmittanceMatchesRatioTrackingTowardsTheSun) {
         }
         EXPECT_LT(max_component(expected), 0.95f);  // the points are shadowed
     }
+    // A sun wider than 1° keeps its walks (its penumbra is not a voxel's blur).
+    LightDesc wide = test::sun(-to_light, 1.0f);
+    wide.angular_radius_deg = 2.0f;
+    lights.push_back(make_light(wide));
+    const SunShadows two(lights, media, 1.0f);
+    EXPECT_TRUE(two.covers(1));
+    EXPECT_FALSE(two.covers(2));
+    lights.pop_back();
     // A homogeneous medium keeps its exact walks: no grids at all.
     media.push_back(
         Medium::homogeneous({Color(1.0f), Color(0.0f), 0.0f}, Box3{Vec3(0.0f), Vec3(1.0f)}));

@@ -300,6 +300,9 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     sunny["volume"]["sun_grid"] = 2.5;
     EXPECT_NE(line(make_plan(scene(sunny)), kMarching).find("volume.sun_grid = 2.5 voxels apart"),
               std::string::npos);
+    sunny["lights"][1]["angular_radius_deg"] = 2;  // a penumbra wider than a voxel's blur
+    EXPECT_EQ(line(make_plan(scene(sunny)), kMarching).find("sun"), std::string::npos);
+    sunny["lights"][1]["angular_radius_deg"] = 0.27;
     sunny["volume"]["sun_grid"] = 0;
     EXPECT_EQ(line(make_plan(scene(sunny)), kMarching).find("sun"), std::string::npos);
     json homogeneous = doc;
