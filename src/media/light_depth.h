@@ -29,10 +29,6 @@ public:
     /// the medium's bounds.
     float depth(const Vec3& x) const;
 
-    float spacing() const { return h_; }
-    size_t nodes() const { return depth_.size(); }
-    size_t bytes() const { return depth_.size() * sizeof(float); }
-
 private:
     Vec3 u_{0.0f}, v_{0.0f}, w_{0.0f};  ///< light-space axes (w towards the light)
     Vec3 origin_{0.0f};                 ///< world position of node (0, 0, 0)

@@ -39,11 +39,4 @@ size_t SunShadows::grids() const {
     return n;
 }
 
-size_t SunShadows::bytes() const {
-    size_t n = 0;
-    for (const auto& g : grids_)
-        for (const LightDepth& d : g) n += d.bytes();
-    return n;
-}
-
 }  // namespace fogmap

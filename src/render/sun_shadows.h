@@ -35,9 +35,8 @@ public:
     bool covers(size_t i) const { return i < grids_.size() && !grids_[i].empty(); }
     /// Transmittance of all media from x towards light i (covers(i)).
     Color transmittance(size_t i, const Vec3& x) const;
-    /// Grids built and their bytes.
+    /// Grids built (suns covered × media).
     size_t grids() const;
-    size_t bytes() const;
 
 private:
     std::vector<std::vector<LightDepth>> grids_;  ///< [light][medium]
