@@ -18,7 +18,7 @@ LightDepth::LightDepth(const Medium& medium, const Vec3& to_light, float spacing
     if (box.empty()) {  // no density anywhere: depth 0
         h_ = 1.0f;
         n_[0] = n_[1] = n_[2] = 2;
-        depth_.assign(8, 0.0f);
+        columns_.assign(4, Column{});
         return;
     }
     Vec3 lo(kInfinity), hi(-kInfinity);  // the box in light space
@@ -42,33 +42,47 @@ LightDepth::LightDepth(const Medium& medium, const Vec3& to_light, float spacing
         h_ *= 1.26f;
     }
     origin_ = lo.x * u_ + lo.y * v_ + lo.z * w_;
-    depth_.assign(size_t(n_[0]) * n_[1] * n_[2], 0.0f);
+
+    // Each column stores only the nodes along its chord through the box: above it the depth is
+    // 0, below it the whole chord's (the first node stored). About the box's volume / h³ nodes.
+    const int nk = n_[2];
+    const auto line = [&](int col) {
+        return Ray{origin_ + float(col % n_[0]) * h_ * u_ + float(col / n_[0]) * h_ * v_, w_};
+    };
+    columns_.assign(size_t(n_[0]) * n_[1], Column{});
+    tbb::parallel_for(0, n_[0] * n_[1], [&](int col) {
+        float enter, leave;  // where the column's line crosses the box (light-space w)
+        if (!intersect_box(box, line(col), 0.0f, float(nk - 1) * h_, &enter, &leave)) return;
+        const int k_top = std::min(nk - 1, int(std::ceil(leave / h_)));
+        const int k_low = std::max(0, int(std::floor(enter / h_)));
+        columns_[col].k0 = k_low;
+        columns_[col].count = std::max(0, k_top - k_low);
+    });
+    size_t stored = 0;
+    for (Column& c : columns_) {
+        c.first = stored;
+        stored += size_t(c.count);
+    }
+    depth_.assign(stored, 0.0f);
 
     // Past this depth every channel's transmittance is below e^-40: the column stops growing.
     const float cap =
         40.0f /
         std::max(std::min({medium.sigma_t().x, medium.sigma_t().y, medium.sigma_t().z}), 1e-30f);
-    const int nk = n_[2];
     tbb::parallel_for(
         tbb::blocked_range<int>(0, n_[0] * n_[1]), [&](const tbb::blocked_range<int>& r) {
             Medium::Sampler sampler(medium);
             for (int col = r.begin(); col != r.end(); ++col) {
-                const int i = col % n_[0], j = col / n_[0];
-                const Vec3 base = origin_ + float(i) * h_ * u_ + float(j) * h_ * v_;
-                float* tau = &depth_[size_t(col) * nk];
-                float enter, leave;  // where the column's line crosses the box (light-space w)
-                if (!intersect_box(box, Ray{base, w_}, 0.0f, float(nk - 1) * h_, &enter, &leave))
-                    continue;  // all 0
-                const int k_top = std::min(nk - 1, int(std::ceil(leave / h_)));
-                const int k_low = std::max(0, int(std::floor(enter / h_)));
+                const Column& c = columns_[col];
+                const Ray ray = line(col);
+                float* tau = &depth_[c.first] - c.k0;  // tau[k], k in [k0, k0 + count)
                 double sum = 0.0;
-                int k = k_top - 1;
-                for (; k >= k_low && sum < cap; --k) {
-                    const float mid = (float(k) + 0.5f) * h_;
-                    sum += h_ * double(sampler.density(base + mid * w_));
+                int k = c.k0 + c.count - 1;
+                for (; k >= c.k0 && sum < cap; --k) {
+                    sum += h_ * double(sampler.density(ray.at((float(k) + 0.5f) * h_)));
                     tau[k] = float(sum);
                 }
-                for (; k >= 0; --k) tau[k] = float(sum);  // below the box, or past the cap
+                for (; k >= c.k0; --k) tau[k] = float(sum);  // past the cap
             }
         });
 }
@@ -82,8 +96,13 @@ float LightDepth::depth(const Vec3& x) const {
               k = std::min(int(c), n_[2] - 2);
     const float fa = a - float(i), fb = b - float(j), fc = c - float(k);
     const auto at = [&](int di, int dj) {
-        const float* t = &depth_[(size_t(j + dj) * n_[0] + (i + di)) * n_[2] + k];
-        return t[0] + fc * (t[1] - t[0]);
+        const Column& col = columns_[size_t(j + dj) * n_[0] + (i + di)];
+        const auto node = [&](int kk) {  // 0 above the chord, the whole chord's below it
+            const int d = kk - col.k0;
+            return col.count == 0 || d >= col.count ? 0.0f : depth_[col.first + std::max(d, 0)];
+        };
+        const float t0 = node(k);
+        return t0 + fc * (node(k + 1) - t0);
     };
     const float x0 = at(0, 0) + fa * (at(1, 0) - at(0, 0));
     const float x1 = at(0, 1) + fa * (at(1, 1) - at(0, 1));

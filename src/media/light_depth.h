@@ -21,8 +21,9 @@ namespace fogmap {
 class LightDepth {
 public:
     /// Tabulates `medium` (a grid medium) towards unit direction `to_light`, nodes `spacing`
-    /// world units apart; the spacing grows (×1.26 steps) until at most `max_nodes` nodes are
-    /// needed. Parallel over columns; deterministic.
+    /// world units apart; the spacing grows (×1.26 steps) until the grid around the box has at
+    /// most `max_nodes` nodes (it stores only those on the box's chords, about the box's volume
+    /// / spacing³). Parallel over columns; deterministic.
     LightDepth(const Medium& medium, const Vec3& to_light, float spacing, size_t max_nodes);
 
     /// ∫ density ds from x towards the light (density × world length): 0 where the ray misses
@@ -33,8 +34,14 @@ private:
     Vec3 u_{0.0f}, v_{0.0f}, w_{0.0f};  ///< light-space axes (w towards the light)
     Vec3 origin_{0.0f};                 ///< world position of node (0, 0, 0)
     float h_ = 0.0f;
-    int n_[3] = {0, 0, 0};
-    std::vector<float> depth_;  ///< column-major: ((j * n_[0] + i) * n_[2] + k)
+    int n_[3] = {0, 0, 0};  ///< nodes per axis (columns n_[0] × n_[1], n_[2] along w)
+    struct Column {
+        size_t first = 0;  ///< depth_ index of node k0
+        int k0 = 0;        ///< the lowest node stored (below it: the same depth)
+        int count = 0;     ///< nodes stored (above them: 0); 0 = the line misses the box
+    };
+    std::vector<Column> columns_;  ///< j * n_[0] + i
+    std::vector<float> depth_;
 };
 
 }  // namespace fogmap
