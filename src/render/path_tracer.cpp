@@ -137,11 +137,13 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
             f = lobe.albedo * lobe_pdf;
         }
         Color T;
-        if (sun_ && sun_->covers(li)) {
-            ++ts.rays;
-            T = scene_.surfaces && scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist)
-                    ? Color(0.0f)
-                    : sun_->transmittance(li, origin);
+        if (sun_ && sun_->covers(li)) {  // surfaces by Embree, media from the grid
+            bool blocked = false;
+            if (scene_.surfaces) {
+                ++ts.rays;
+                blocked = scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist);
+            }
+            T = blocked ? Color(0.0f) : sun_->transmittance(li, origin);
         } else {
             T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f),
                                      rng, &ts.rays);

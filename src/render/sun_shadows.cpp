@@ -10,8 +10,9 @@ SunShadows::SunShadows(const std::vector<Light>& lights, const std::vector<Mediu
     if (!(spacing_voxels > 0.0f) || media.empty()) return;
     for (const Medium& m : media)
         if (!m.grid()) return;
-    const auto small_sun = [](const Light& l) {
-        return l.type == LightType::Sun && l.sun_one_minus_cos <= kSunGridMaxOneMinusCos;
+    const float max_one_minus_cos = sun_one_minus_cos(kSunGridMaxRadiusDeg);
+    const auto small_sun = [&](const Light& l) {
+        return l.type == LightType::Sun && l.sun_one_minus_cos <= max_one_minus_cos;
     };
     size_t suns = 0;
     for (const Light& l : lights) suns += small_sun(l) ? 1 : 0;

@@ -17,9 +17,6 @@
 
 namespace fogmap {
 
-/// Suns wider than 1° keep their walks: the grid sees the sun's disc as its centre direction,
-/// and a penumbra that wide is not a voxel's blur.
-inline constexpr float kSunGridMaxOneMinusCos = 1.5230867e-4f;  // 1 − cos 1°
 /// Nodes of all grids' light-aligned boxes together; each grid grows its spacing to fit its
 /// share (and stores only the nodes on its medium's chords, fewer).
 inline constexpr size_t kSunGridMaxNodes = size_t(1) << 25;

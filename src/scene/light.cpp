@@ -18,6 +18,12 @@ float sun_cone_pdf(const Light& l) { return 1.0f / (kTwoPi * l.sun_one_minus_cos
 
 }  // namespace
 
+float sun_one_minus_cos(float angular_radius_deg) {
+    const double theta = angular_radius_deg * (3.14159265358979323846 / 180.0);
+    const double s = std::sin(0.5 * theta);
+    return static_cast<float>(2.0 * s * s);
+}
+
 Light make_light(const LightDesc& d) {
     Light l;
     l.type = d.type;
@@ -32,8 +38,7 @@ Light make_light(const LightDesc& d) {
     l.cos_inner = static_cast<float>(std::cos((d.cone_angle_deg - d.cone_delta_deg) * deg));
     if (d.type == LightType::Sun && d.angular_radius_deg > 0.0f) {
         const double theta = d.angular_radius_deg * deg;
-        const double s = std::sin(0.5 * theta);
-        l.sun_one_minus_cos = static_cast<float>(2.0 * s * s);  // 1 − cos θ without cancellation
+        l.sun_one_minus_cos = sun_one_minus_cos(d.angular_radius_deg);
         const double sin_theta = std::sin(theta);
         l.radiance =
             d.irradiance / static_cast<float>(3.14159265358979323846 * sin_theta * sin_theta);

@@ -33,6 +33,10 @@ struct Light {
 /// Converts a validated description.
 Light make_light(const LightDesc& desc);
 
+/// 1 − cos θ of a sun cone of angular radius θ (degrees), without cancellation: Light's
+/// sun_one_minus_cos.
+float sun_one_minus_cos(float angular_radius_deg);
+
 struct LightSample {
     Vec3 wi{0.0f};           ///< unit direction from the shading point towards the light
     float dist = kInfinity;  ///< distance to the light point (infinite lights: kInfinity)

@@ -104,7 +104,7 @@ PlanItem plan_marching(const SceneDesc& desc) {
         // render/sun_shadows.h: suns up to 1° wide, when every medium is a grid.
         bool sun = false, grids = desc.volume.sun_grid > 0.0f;
         for (const LightDesc& l : desc.lights)
-            sun = sun || (l.type == LightType::Sun && l.angular_radius_deg <= 1.0f);
+            sun = sun || (l.type == LightType::Sun && l.angular_radius_deg <= kSunGridMaxRadiusDeg);
         for (const MediumDesc& m : desc.media) grids = grids && m.type == MediumType::Vdb;
         const std::string sun_shadows =
             sun && grids ? ", take the sun's transmittance from a grid of optical depth along it "

@@ -203,6 +203,11 @@ struct VolumeGatherSettings {
     float sun_grid = 1.0f;
 };
 
+/// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
+/// the grid sees the sun's disc as its centre direction, and a wider penumbra is not a voxel's
+/// blur.
+inline constexpr float kSunGridMaxRadiusDeg = 1.0f;
+
 /// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
 inline constexpr int kLatestEndFactor = 4;
 
