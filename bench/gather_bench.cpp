@@ -169,7 +169,7 @@ void bm_gather(benchmark::State& state, std::string vdb, Estimate e) {
     state.counters[e == Estimate::Beam          ? "photons_per_ray"
                    : e == Estimate::PhotonBeams ? "beams_per_ray"
                                                 : "lookups_per_ray"] =
-        static_cast<double>(st.queries) / static_cast<double>(rays);
+        static_cast<double>(st.lookups) / static_cast<double>(rays);
     if (const auto it = row.find(Estimate::MarchOnly); it != row.end())
         state.counters["estimate_ns_per_ray"] = ns - it->second;
     if (e != Estimate::Beam && e != Estimate::PhotonBeams) return;

@@ -29,6 +29,8 @@ public:
     /// ∫ density ds from x towards the light (density × world length): 0 where the ray misses
     /// the medium's bounds.
     float depth(const Vec3& x) const;
+    /// Nodes stored (each one density evaluation to build).
+    size_t nodes() const { return depth_.size(); }
 
 private:
     Vec3 u_{0.0f}, v_{0.0f}, w_{0.0f};  ///< light-space axes (w towards the light)

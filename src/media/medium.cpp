@@ -178,6 +178,7 @@ Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
 }
 
 float Medium::Sampler::density(const Vec3& p_world) {
+    ++steps_;
     if (!grid_sampler_) return medium_->world_bounds_.contains(p_world) ? 1.0f : 0.0f;
     return grid_sampler_->density(transform_point(medium_->world_to_index_, p_world));
 }
@@ -308,6 +309,7 @@ bool Medium::Sampler::next_segment() {
 }
 
 bool Medium::Sampler::next_tentative(Rng& rng, float* t, float* sigma_maj) {
+    ++steps_;
     if (++tentatives_ > kMaxTentatives) {  // bounded work; see kMaxTentatives
         if (!exhausted_) ++exhausted_walks_;
         exhausted_ = true;
@@ -443,8 +445,8 @@ InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& r
 }
 
 Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng) {
-    Color T(1.0f);      // the residual's ratio-tracking product
-    DVec3 tau_c(0.0);   // the control's optical depth, exact
+    Color T(1.0f);     // the residual's ratio-tracking product
+    DVec3 tau_c(0.0);  // the control's optical depth, exact
     for (Medium::Sampler& s : media) {
         if (!s.begin_walk(ray, 0.0f, t_max, /*residual=*/true)) continue;
         const Color sigma_t_unit = s.medium().sigma_t();

@@ -107,6 +107,9 @@ public:
         bool exhausted() const { return exhausted_; }
         /// Walks cut at kMaxTentatives since this sampler was made (for reports).
         uint64_t exhausted_walks() const { return exhausted_walks_; }
+        /// Density evaluations and tentative collisions since this sampler was made: the work
+        /// auto's pilot counts (render/pilot.h).
+        uint64_t steps() const { return steps_; }
 
     private:
         friend class Medium;
@@ -122,7 +125,7 @@ public:
         // resolution of t, and a float walk would stop advancing (a hang in empty space).
         double t_end_ = 0.0, seg_t0_ = 0.0, seg_t1_ = 0.0;
         float seg_maj_ = 0.0f;
-        float seg_min_ = 0.0f;          ///< residual walks: control density of the segment
+        float seg_min_ = 0.0f;  ///< residual walks: control density of the segment
         bool residual_ = false;
         double control_length_ = 0.0;  ///< residual walks: ∫ d_min dt over segments entered
         int cell_[3] = {0, 0, 0}, step_[3] = {0, 0, 0};
@@ -131,6 +134,7 @@ public:
         bool exhausted_ = false;
         uint32_t tentatives_ = 0;
         uint64_t exhausted_walks_ = 0;
+        uint64_t steps_ = 0;
     };
 
 private:

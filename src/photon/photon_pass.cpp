@@ -173,6 +173,7 @@ struct ChunkOut {
     uint64_t met_media = 0;     ///< photon paths that entered the media's bounds
     uint64_t interactions = 0;  ///< the work traced (a deterministic cost measure)
     uint64_t longest = 0;       ///< the most interactions of one path
+    uint64_t steps = 0;         ///< medium density evaluations and tentative collisions
     uint64_t capped = 0;
     double capped_power = 0.0;  ///< Σ average(relative power) of paths the bounce limit cut
 };
@@ -188,8 +189,9 @@ void put(std::vector<uint8_t>* bytes, const T* values, size_t n) {
 
 void put_chunk(std::vector<uint8_t>* bytes, const ChunkOut& o) {
     const uint64_t n = o.photons.size(), nb = o.beams.size();
-    const uint64_t counts[] = {o.accepted, o.met_media, o.interactions, o.longest, o.capped, n, nb};
-    put(bytes, counts, 7);
+    const uint64_t counts[] = {o.accepted, o.met_media, o.interactions, o.longest, o.capped,
+                               n,          nb,          o.steps};
+    put(bytes, counts, 8);
     put(bytes, &o.capped_power, 1);
     put(bytes, o.photons.data(), n);
     put(bytes, o.beams.data(), nb);
@@ -201,14 +203,15 @@ ChunkOut get_chunk(const uint8_t** at) {
         std::memcpy(values, *at, n * sizeof(*values));
         *at += n * sizeof(*values);
     };
-    uint64_t counts[7];
-    get(counts, 7);
+    uint64_t counts[8];
+    get(counts, 8);
     ChunkOut o;
     o.accepted = counts[0];
     o.met_media = counts[1];
     o.interactions = counts[2];
     o.longest = counts[3];
     o.capped = counts[4];
+    o.steps = counts[7];
     get(&o.capped_power, 1);
     o.photons.resize(counts[5]);
     get(o.photons.data(), o.photons.size());
@@ -309,6 +312,8 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                 const Job& job = jobs[j];
                 const PhotonStream& st = set.streams[job.stream];
                 ChunkOut& o = out[j];
+                uint64_t steps_before = 0;
+                for (const Medium::Sampler& m : samplers) steps_before += m.steps();
                 for (uint64_t i = job.begin; i < job.end; ++i) {
                     Rng rng(seed, i, st.key);
                     Ray ray;
@@ -340,6 +345,8 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
                         o.capped_power += average(path.power);
                     }
                 }
+                for (const Medium::Sampler& m : samplers) o.steps += m.steps();
+                o.steps -= steps_before;
             }
         });
         if (n_ranks > 1) {  // every rank gets every chunk, and all merge them alike
@@ -363,6 +370,8 @@ PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const Photo
             sr.capped_power += out[j].capped_power;
             sr.longest = std::max(sr.longest, out[j].longest);
             interactions[s] += out[j].interactions;
+            result.steps += out[j].steps;
+            result.interactions += out[j].interactions;
             for (const TaggedPhoton& t : out[j].photons) {
                 const int m = static_cast<int>(t.map);
                 Pair& p = pairs[s][m];

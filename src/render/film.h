@@ -56,6 +56,9 @@ struct RenderStats {
     uint64_t rays = 0;       ///< Embree queries (closest hit + occlusion)
     uint64_t nonfinite = 0;  ///< samples dropped because they were NaN or infinite
     uint64_t capped = 0;     ///< samples whose path render.max_depth cut while it carried light
+    uint64_t steps = 0;      ///< medium density evaluations and tentative collisions
+    uint64_t lookups = 0;    ///< photon-map and sun-grid lookups
+    uint64_t gathered = 0;   ///< photons those lookups gathered from kd-trees
     int threads = 0;         ///< worker threads used
 };
 
@@ -145,14 +148,15 @@ private:
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
 /// uniforms, then trace(ray, rng, state, PixelSample) -> FilmSample; non-finite samples are dropped
-/// (counted) and the film holds the mean over spp. state = make_state() per tile; state.rays and
-/// state.capped are summed into *stats (may be null).
+/// (counted) and the film holds the mean over spp. state = make_state() per tile; state.rays,
+/// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
+/// *stats (may be null).
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
                  bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
-    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0};
+    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
     const Timer timer;
     auto shade = [&](int x, int y, auto& state) {
@@ -180,6 +184,9 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     auto end_tile = [&](const auto& state) {
         rays += state.rays;
         capped += state.capped;
+        lookups += state.lookups;
+        gathered += state.gathered;
+        for (const auto& m : state.media) steps += m.steps();
     };
     const uint64_t pixels = render_tiles(w, h, share, quiet, make_state, shade, end_tile);
     if (stats) {
@@ -188,6 +195,9 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         stats->rays = rays.load();
         stats->nonfinite = nonfinite.load();
         stats->capped = capped.load();
+        stats->steps = steps.load();
+        stats->lookups = lookups.load();
+        stats->gathered = gathered.load();
         stats->threads = active_thread_count();
     }
     return film;

@@ -143,6 +143,7 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
                 ++ts.rays;
                 blocked = scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist);
             }
+            ++ts.lookups;
             T = blocked ? Color(0.0f) : sun_->transmittance(li, origin);
         } else {
             T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f),
@@ -169,11 +170,18 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     if (end_ && end_->ends_at(x, ++p.gather_vertices)) {
         // Direct light by a shadow ray, the rest from the map; the path ends here.
         *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
+        ++ts.lookups;
+        ts.neighbors.clear();
         *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
+        ts.gathered += ts.neighbors.size();
         return false;
     }
     const bool guided = guide_ && p.depth <= guide_->settings().vertices;
-    if (guided) guide_->prepare(x, p.ray.d, phase, ts.neighbors, &ts.lobes);
+    if (guided) {
+        ++ts.lookups;
+        guide_->prepare(x, p.ray.d, phase, ts.neighbors, &ts.lobes);
+        ts.gathered += ts.neighbors.size();
+    }
     const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
     *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), lobes}, rng, ts);
     Vec3 wi;

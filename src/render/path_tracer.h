@@ -50,7 +50,9 @@ public:
         NeighborList neighbors;  ///< guide photons, or the photons ending a path
         GuideLobes lobes;        ///< the guide at the current vertex
         uint64_t rays = 0;
-        uint64_t capped = 0;  ///< paths cut by max_depth
+        uint64_t capped = 0;    ///< paths cut by max_depth
+        uint64_t lookups = 0;   ///< volume-map, guide and sun-grid lookups
+        uint64_t gathered = 0;  ///< photons those lookups gathered from the kd-tree
     };
     ThreadState make_state() const;
 

@@ -13,6 +13,7 @@
 #include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/photon_integrator.h"
+#include "render/pilot.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
@@ -72,6 +73,20 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     for (Image& layer : film->layers) get(layer);
 }
 
+/// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
+/// pilot times; `silent` prints nothing, not even warnings (auto's pilot runs).
+struct RunOptions {
+    bool quiet = false, silent = false;
+    const Image* reference = nullptr;
+    Ranks* ranks = nullptr;
+    const Checkpoints* checkpoints = nullptr;
+    const Timer* timer = nullptr;
+    double load_s = 0.0, pilot_s = 0.0;
+    SharedTables* shared = nullptr;
+};
+
+PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene, const RunOptions& o);
+
 /// The guide's settings: its radius is the volume gather's.
 GuideSettings guide_settings(const GatherParams& gather) {
     GuideSettings g;
@@ -85,83 +100,55 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
     return progressive ? mix64(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i)) : seed;
 }
 
-float camera_optical_depth(const Scene& scene, const CameraDesc& camera) {
-    const Camera cam(camera);
-    std::vector<Medium::Sampler> samplers;
-    for (const Medium& m : scene.media) samplers.emplace_back(m);
-    std::vector<double> depths;
-    for (int j = 0; j < 24; ++j)
-        for (int i = 0; i < 32; ++i) {
-            const Ray ray =
-                cam.generate((i + 0.5f) * camera.width / 32.0f, (j + 0.5f) * camera.height / 24.0f);
-            double tau = 0.0;
-            for (Medium::Sampler& s : samplers) {
-                const Medium& m = s.medium();
-                float t0, t1;
-                if (m.world_bounds().empty() ||
-                    !intersect_box(m.world_bounds(), ray, 0.0f, kInfinity, &t0, &t1))
-                    continue;
-                // Steps of half a voxel (256 across a homogeneous medium), at most 4096.
-                const double length = double(t1) - t0;
-                const double steps =
-                    m.voxel_world() > 0.0f ? length / (0.5 * m.voxel_world()) : 256;
-                const int n = static_cast<int>(std::clamp(std::ceil(steps), 1.0, 4096.0));
-                const double h = length / n;
-                const double sigma_t = average(m.sigma_t());
-                for (int k = 0; k < n; ++k)
-                    tau += sigma_t * h * s.density(ray.at(static_cast<float>(t0 + (k + 0.5) * h)));
-            }
-            if (tau > 0.01) depths.push_back(tau);
-        }
-    if (depths.empty()) return 0.0f;
-    std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-    return static_cast<float>(depths[depths.size() / 2]);
-}
-
-SceneDesc refine_auto(SceneDesc desc, const Scene& scene) {
-    if (!desc.render.auto_media) return desc;
-    const float tau = camera_optical_depth(scene, desc.camera);
-    char text[96];
-    std::snprintf(text, sizeof text,
-                  "camera rays through the media have a median optical depth of %.2f", tau);
-    const std::string depth = text;
-    if (tau < kThinMediaDepth && !desc.progressive.enabled()) {
-        desc.render.integrator = Integrator::Path;
-        desc.render.auto_reason =
-            "auto: media under sun, sky or area lights, but thin: " + depth + " (below " +
-            g_text(kThinMediaDepth) +
-            "), where the path tracer measured 1.4x lower error than the photon maps at equal "
-            "time (smoke1 over a 10 km ground at a tenth of its density)";
-    } else {
-        desc.render.auto_reason += "; " + depth;
-        if (tau < kThinMediaDepth)  // the path tracer has no progressive iterations
-            desc.render.auto_reason += " (thin, but progressive runs need the photon integrator)";
-    }
-    return desc;
-}
-
 PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference,
                             Ranks* ranks, const Checkpoints* checkpoints) {
     SceneDesc desc = choose_integrator(scene_desc);
+    const Timer timer;
+    std::unique_ptr<const Scene> scene;
+    agree_on_input(ranks, [&] { scene = load_scene(desc); });
+    const double load_s = timer.seconds();
+    double pilot_s = 0.0;
+    SharedTables shared;           // the pilot's sun grids serve the render
+    if (desc.render.auto_media) {  // the same choice on every rank: the pilot is deterministic
+        const Timer pilot;
+        desc = pilot_auto(std::move(desc), *scene, &shared);
+        pilot_s = pilot.seconds();
+    }
+    return run_loaded(
+        desc, *scene,
+        {quiet, false, reference, ranks, checkpoints, &timer, load_s, pilot_s, &shared});
+}
+
+PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+    RunOptions o;
+    o.quiet = o.silent = true;
+    o.shared = shared;
+    return run_loaded(desc, scene, o);
+}
+
+namespace {
+
+PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene_ref, const RunOptions& o) {
+    const Image* const reference = o.reference;
+    Ranks* const ranks = o.ranks;
+    const Checkpoints* const checkpoints = o.checkpoints;
     const int n_ranks = ranks ? ranks->size() : 1, my_rank = ranks ? ranks->rank() : 0;
     const bool root = my_rank == 0;
-    quiet = quiet || !root;  // rank 0 alone speaks
+    const bool speak = root && !o.silent;
+    const bool quiet = o.quiet || !speak;  // rank 0 alone speaks
     PipelineResult out;
     Report& report = out.report;
     report.ranks = n_ranks;
     const auto warn = [&](const std::string& text) {
-        if (root) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+        if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
         report.warnings.push_back(text);
     };
-    const Timer timer;
+    const Timer own_timer;
+    const Timer& timer = o.timer ? *o.timer : own_timer;
     Plan plan = make_plan(desc);
-    std::unique_ptr<const Scene> scene;
-    agree_on_input(ranks, [&] { scene = load_scene(desc); });
-    if (desc.render.auto_media) {  // thin media go to the path tracer
-        desc = refine_auto(std::move(desc), *scene);
-        plan = make_plan(desc);
-    }
-    add_phase(&report, "load", timer.seconds());
+    const Scene* const scene = &scene_ref;
+    add_phase(&report, "load", o.load_s);
+    if (o.pilot_s > 0.0) add_phase(&report, "pilot", o.pilot_s);
     for (const std::string& w : scene->warnings) warn(w);
     describe_volume_light(*scene, &plan.volume_light);
     report.plan_text = plan_text(plan);
@@ -177,12 +164,15 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     // photon/photon_pass.h).
     PhotonSettings photons = desc.photons;
     photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
-    photons.volume_attempts = volume_attempts(desc);  // the volume map's share of the work
+    if (photons.volume_attempts == 0)                     // unless set (auto's pilot)
+        photons.volume_attempts = volume_attempts(desc);  // the volume map's share of the work
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
     std::optional<SigmaTable> sigma_table;  // map_end: σ_s over boxes, for every iteration
-    std::optional<SunShadows> sun_shadows;  // map_end: the suns' optical depth, every iteration
+    // map_end: the suns' optical depth, every iteration (and every run sharing the tables)
+    SharedTables own_tables;
+    std::optional<SunShadows>& sun_shadows = (o.shared ? o.shared : &own_tables)->sun;
     // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
     // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the
     // `base` iterations of the checkpoint resumed from.
@@ -199,7 +189,10 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                                     int64_t(report.depth_capped),
                                     int64_t(report.photons_emitted),
                                     int64_t(report.photons_capped),
-                                    int64_t(sum.clamped)};
+                                    int64_t(sum.clamped),
+                                    int64_t(report.steps),
+                                    int64_t(report.lookups),
+                                    int64_t(report.gathered)};
     };
     const auto set_counts = [&](const std::vector<int64_t>& c) {
         mine = int(c[0]);
@@ -210,6 +203,9 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
         report.photons_emitted = uint64_t(c[5]);
         report.photons_capped = uint64_t(c[6]);
         sum.clamped = uint64_t(c[7]);
+        report.steps = uint64_t(c[8]);
+        report.lookups = uint64_t(c[9]);
+        report.gathered = uint64_t(c[10]);
     };
     // Every rank's sum and counts into rank 0's; the other ranks start again from zero.
     const auto gather_to_root = [&] {
@@ -253,7 +249,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             ++own;
             RenderSettings settings = desc.render;
             settings.seed = iteration_seed(desc.render.seed, i, progressive);
-            if (!progressive) {
+            if (!progressive && ranks) {  // else the description's share (auto's pilot)
                 settings.tile_index = my_rank;
                 settings.tile_count = n_ranks;
             }
@@ -281,6 +277,8 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                 add_phase(&report, "photon pass", pass.time_s);
                 if (pass.exchange_s > 0.0) add_phase(&report, "photon exchange", pass.exchange_s);
                 report.photons_emitted += pass.emitted;
+                report.photon_steps += pass.steps;
+                report.photon_interactions += pass.interactions;
                 report.photons_capped += pass.capped;
                 report.photons_capped_power += pass.capped_power;
                 const PhotonMaps maps = build_trees(std::move(pass));
@@ -312,13 +310,19 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
                                                   std::pow(gather.volume.radius / r1, 3.0f);
                         end.emplace(*maps.volume, scene->media, gather.volume.radius,
                                     gather.gather_depth, k, desc.volume.gather_tau);
+                        report.precompute_nodes += end->nodes();
                         if (end->wants_table()) {
-                            if (!sigma_table) sigma_table.emplace(scene->media, 2.0f * r1);
+                            if (!sigma_table) {
+                                sigma_table.emplace(scene->media, 2.0f * r1);
+                                report.precompute_nodes += sigma_table->nodes();
+                            }
                             end->set_table(&*sigma_table);
                         }
                     }
-                    if (!sun_shadows)
+                    if (!sun_shadows) {
                         sun_shadows.emplace(scene->lights, scene->media, desc.volume.sun_grid);
+                        report.precompute_nodes += sun_shadows->nodes();
+                    }
                     add_phase(&report, "precompute", precompute.seconds());
                     film = render_path(*scene, settings, quiet_pass, &stats, nullptr,
                                        end ? &*end : nullptr, &*sun_shadows);
@@ -338,6 +342,9 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
             add_phase(&report, "render", stats.render_s);
             report.samples += stats.samples;
             report.rays += stats.rays;
+            report.steps += stats.steps;
+            report.lookups += stats.lookups;
+            report.gathered += stats.gathered;
             report.nonfinite += stats.nonfinite;
             report.depth_capped += stats.capped;
             report.render_s += stats.render_s;
@@ -375,8 +382,10 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     if (!progressive && n_ranks > 1) {
         // Each pixel is one rank's and 0 (bits 0) on the others: summing the values' bits as
         // integers gives rank 0 the very floats one process renders.
-        std::vector<int64_t> c{int64_t(report.samples), int64_t(report.rays),
-                               int64_t(report.nonfinite), int64_t(report.depth_capped)};
+        std::vector<int64_t> c{int64_t(report.samples),   int64_t(report.rays),
+                               int64_t(report.nonfinite), int64_t(report.depth_capped),
+                               int64_t(report.steps),     int64_t(report.lookups),
+                               int64_t(report.gathered)};
         std::vector<int64_t> bits = film_bits(out.film);
         const Timer reduce;
         ranks->sum_to_root(&c);
@@ -388,6 +397,9 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
         report.rays = uint64_t(c[1]);
         report.nonfinite = uint64_t(c[2]);
         report.depth_capped = uint64_t(c[3]);
+        report.steps = uint64_t(c[4]);
+        report.lookups = uint64_t(c[5]);
+        report.gathered = uint64_t(c[6]);
     }
     if (reference && !progressive)
         report.iterations.back().rel_mse = image_error(out.film.beauty, *reference).rel_mse;
@@ -425,5 +437,7 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     report.mean = out.film.beauty.mean();
     return out;
 }
+
+}  // namespace
 
 }  // namespace fogmap

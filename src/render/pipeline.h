@@ -9,10 +9,12 @@
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/report.h"
+#include "render/sun_shadows.h"
 #include "scene/scene_desc.h"
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 
 namespace fogmap {
 
@@ -36,18 +38,6 @@ struct PipelineResult {
 /// uses the seed itself, progressive iterations independent streams derived from it.
 uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 
-/// The median optical depth (channel average) of the camera rays through a 32 × 24 grid of the
-/// film that meet the media with depth above 0.01 (0 when none does), by midpoint sums at half
-/// each medium's voxel (homogeneous media: 256 steps across its bounds; at most 4096 steps per
-/// medium and ray). Deterministic.
-float camera_optical_depth(const Scene& scene, const CameraDesc& camera);
-
-/// After load_scene (run_pipeline calls it): auto's choice of photon for media under sun, sky or
-/// area lights (render.auto_media) becomes the path tracer where camera_optical_depth is below
-/// kThinMediaDepth (scene/plan.h), unless progressive iterations are asked for; the reason gives
-/// the depth either way. Any other description is returned unchanged.
-SceneDesc refine_auto(SceneDesc desc, const Scene& scene);
-
 /// Runs `desc` with desc.render.threads threads (one ThreadLimit for every phase). Progress on
 /// stderr unless quiet; warnings on stderr always (and in the report). `reference` (optional)
 /// feeds the per-iteration error of progressive runs. Throws InputError for unreadable scene data
@@ -63,5 +53,18 @@ SceneDesc refine_auto(SceneDesc desc, const Scene& scene);
 /// passes rank 0's totals to checkpoints->write.
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr,
                             Ranks* ranks = nullptr, const Checkpoints* checkpoints = nullptr);
+
+/// Tables that runs on one loaded scene share, each built by the first run that needs it (and
+/// counted in its report's work alone): the suns' shadow grids (their light, media and
+/// volume.sun_grid must be the same for every run).
+struct SharedTables {
+    std::optional<SunShadows> sun;
+};
+
+/// run_pipeline of `desc` (its integrator chosen: not auto) on `scene`, already loaded from it,
+/// on one process, printing nothing (warnings are in the report): auto's pilot runs
+/// (render/pilot.h). The report's load time is 0.
+PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene,
+                            SharedTables* shared = nullptr);
 
 }  // namespace fogmap

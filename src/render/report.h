@@ -40,6 +40,13 @@ struct Report {
     int width = 0, height = 0, spp = 0, threads = 0;
     int ranks = 1;  ///< MPI ranks that ran (core/ranks.h); iterations lists rank 0's own
     uint64_t samples = 0, rays = 0, nonfinite = 0;
+    /// The work done, counted (deterministic; auto's pilot weighs it: render/pilot.h): the
+    /// render's medium density evaluations and tentative collisions, its photon-map and
+    /// sun-grid lookups and the photons they gathered from kd-trees, the photon pass's medium steps
+    /// and photon path interactions, and the nodes of the tables built once per render (camera
+    /// paths ending in the volume map).
+    uint64_t steps = 0, lookups = 0, photon_steps = 0, photon_interactions = 0;
+    uint64_t gathered = 0, precompute_nodes = 0;
     double render_s = 0.0;
     std::vector<std::string> outputs;                  ///< files written
     std::string plan_text;                             ///< make_plan's five lines

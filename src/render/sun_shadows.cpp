@@ -40,4 +40,11 @@ size_t SunShadows::grids() const {
     return n;
 }
 
+size_t SunShadows::nodes() const {
+    size_t n = 0;
+    for (const auto& g : grids_)
+        for (const LightDepth& d : g) n += d.nodes();
+    return n;
+}
+
 }  // namespace fogmap

@@ -35,6 +35,8 @@ public:
     Color transmittance(size_t i, const Vec3& x) const;
     /// Grids built (suns covered × media).
     size_t grids() const;
+    /// Nodes of all grids.
+    size_t nodes() const;
 
 private:
     std::vector<std::vector<LightDepth>> grids_;  ///< [light][medium]

@@ -152,7 +152,7 @@ Color VolumeGather::multiple_scattering(const Ray& ray, const Color& beta, Rng& 
 Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st) const {
     Color sum(0.0f);
     auto gather = [&](const MarchedStep& s, float factor) {
-        ++st.queries;
+        ++st.lookups;
         sum += factor * s.weight *
                volume_inscattered(*map_, s.x, -dir, PhaseMix(st.media, s.x), k_, radius_,
                                   st.neighbors);
@@ -189,7 +189,7 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
     const PhaseMix single(st.media, ray.o);  // with one medium the same everywhere
     Color sum(0.0f);
     beam_->for_each_hit(ray, t0, t1, [&](const BeamTree::Record& p, float t, float kernel) {
-        ++st.queries;
+        ++st.lookups;
         // τ stays at the previous step's end in the gap before a step.
         const MarchedStep* it = step_at(depth, t);
         if (!it) return;
@@ -213,7 +213,7 @@ Color VolumeGather::photon_beam_estimate(const Ray& ray, State& st) const {
     const PhaseMix single(st.media, ray.o);  // with one medium the same everywhere
     Color sum(0.0f);
     beams_->for_each_hit(ray, t0, t1, [&](const PhotonBeams::Piece& p, float t, float kernel) {
-        ++st.queries;
+        ++st.lookups;
         const MarchedStep* it = step_at(depth, t);
         if (!it || t < it->t0) return;  // past the march, or in a gap between media
         const Color tau = it->tau0 + it->sigma_t * (t - it->t0);

@@ -48,7 +48,8 @@ public:
         std::vector<MarchedStep> steps;
         std::vector<double> cdf;  ///< cumulative step weights
         uint64_t rays = 0;        ///< Embree queries of shadow rays
-        uint64_t queries = 0;     ///< volume-map lookups (sphere) or photons visited (beam)
+        uint64_t lookups = 0;     ///< volume-map lookups (sphere) or photons visited (beam)
+        uint64_t gathered = 0;    ///< not counted (the pilot's candidates trace paths)
         Color emitted{0.0f};      ///< the marched segment's emission, Σ weight σ_a L_e
     };
     State make_state() const;

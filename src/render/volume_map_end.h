@@ -75,6 +75,8 @@ public:
     /// σ_s averaged over the cube of edge `edge` about x (the cells' piecewise-constant σ_s,
     /// integrated exactly), per channel; 0 beyond the table.
     Color cube_average(const Vec3& x, float edge) const;
+    /// Lattice points (each one density evaluation to build).
+    size_t nodes() const { return sums_.size(); }
 
 private:
     DVec3 integral_to(const Vec3& u) const;  ///< ∫ σ_s from the origin to lattice point u
@@ -117,6 +119,8 @@ public:
     /// Lookups interpolate the photons' directional moments (see Moments below); else they
     /// search the kd-tree, and the grid (when built) gives only the photon counts.
     bool interpolates() const { return phase_fits_ && !slot_.empty(); }
+    /// Grid points built: the kernel density's and the moments'.
+    size_t nodes() const { return density_.nodes() + slot_.size(); }
 
     /// Where the moments are kept: every medium fits_moment_grid (|g| <= kMomentGridMaxG,
     /// media/phase.h: the phase's Legendre series cut after l = 2 then misses at most

@@ -211,14 +211,13 @@ SceneDesc choose_integrator(SceneDesc desc) {
         if (desc.volume.gather_depth == 0 && desc.volume.estimator != VolumeEstimator::PhotonBeams)
             desc.volume.gather_depth = kAutoGatherDepth;
         desc.render.auto_reason =
-            desc.volume.gather_depth == 0
-                ? "auto: media under sun, sky or area lights, with the photon beams the scene asks "
-                  "for"
-                : "auto: media under sun, sky or area lights; camera paths that end in the volume "
-                  "map at vertex " +
-                      std::to_string(desc.volume.gather_depth) +
-                      " measured 1.7-3.6x lower error than the path tracer at equal time "
-                      "(smoke.json, smoke1 and the Disney cloud over a 10 km ground)";
+            "auto: media under sun, sky or area lights; once they are loaded a pilot picks photon "
+            "(" +
+            std::string(desc.volume.gather_depth == 0
+                            ? "with the photon beams the scene asks for"
+                            : "camera paths ending in the volume map at vertex " +
+                                  std::to_string(desc.volume.gather_depth)) +
+            "), path or guided";
     } else {
         desc.render.integrator = Integrator::Path;
         desc.render.auto_reason = "auto: no medium and no caustics from small lights";

@@ -59,11 +59,10 @@ struct Plan {
 ///   error than the path tracer at equal time);
 /// - photon when a medium emits (fire.json: the photon maps had 3-8x lower error than the path
 ///   tracer at equal time; the path tracer finds the fire only by phase and BSDF sampling);
-/// - photon with camera paths ending in the volume map (volume.gather_depth kAutoGatherDepth,
-///   unless the scene sets a depth or asks for photon beams) for any other scene with media:
-///   smoke and clouds under sun, sky or area lights (smoke.json, smoke1 and the Disney cloud
-///   over a 10 km ground: 1.7-3.6x lower error than the path tracer at equal time, 1 to 11 s,
-///   where the photon maps seen from the camera had up to 3x higher);
+/// - for any other scene with media (smoke and clouds under sun, sky or area lights), photon with
+///   camera paths ending in the volume map (volume.gather_depth kAutoGatherDepth, unless the
+///   scene sets a depth or asks for photon beams) and render.auto_media: once the media are
+///   loaded, a pilot of photon, path and guided decides (render/pilot.h);
 /// - path when there is no medium.
 /// `desc` unchanged when its integrator is not auto; else a copy with the choice and its reason
 /// (render.auto_reason). Never throws.
@@ -73,14 +72,6 @@ SceneDesc choose_integrator(SceneDesc desc);
 /// the Disney cloud (relMSE 0.70 and 0.30 of the path tracer's at 1 s against 0.78 and 0.51) and
 /// tied on smoke.json (0.58 against 0.56).
 inline constexpr int kAutoGatherDepth = 3;
-
-/// Media under sun, sky or area lights are thin (auto then picks the path tracer) where the
-/// camera rays that meet them have a median optical depth below this: on smoke1 over a 10 km
-/// ground (64 spp, 4 seeds, relMSE × CPU time) the photon integrator came to 1.4 times the path
-/// tracer's at a tenth of its σ (median 0.21), 0.95 at three tenths (0.49), 0.62–0.69 as it is
-/// (1.44) and 0.62–0.72 at five times (6.7); smoke.json 3.7, the Disney cloud over the ground 9.9.
-/// (render/pipeline.h, refine_auto).
-inline constexpr float kThinMediaDepth = 0.5f;
 
 /// The plan for `desc` (assumed validated; shapes naming unknown materials count as nothing),
 /// after choose_integrator. Never throws.

@@ -109,7 +109,7 @@ struct RenderSettings {
     /// Not a scene key: why the integrator was chosen when the scene asked for auto.
     std::string auto_reason;
     /// Not a scene key: auto chose photon for media under sun, sky or area lights; once the media
-    /// are loaded, thin ones go to the path tracer instead (scene/plan.h, refine_auto).
+    /// are loaded, a pilot of the candidates decides (render/pilot.h).
     bool auto_media = false;
     int spp = 16;  ///< samples per pixel, >= 1
     /// Photon integrator: about how many of a pixel's spp samples look up the photon maps (0 =
@@ -142,7 +142,8 @@ struct PhotonSettings {
     /// photon_beams).
     bool volume_beams = false;
     /// Not a scene key: with the volume map the only map, it closes after this many attempts
-    /// (0 = no such rule; scene/plan.h, volume_attempts).
+    /// (0 = no such rule; the pipeline sets it by scene/plan.h, volume_attempts, unless auto's
+    /// pilot has).
     uint64_t volume_attempts = 0;
 };
 

@@ -1,0 +1,181 @@
+#include "render/pilot.h"
+
+#include "core/rng.h"
+#include "render/pipeline.h"
+#include "scene/plan.h"
+#include "scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+namespace fogmap {
+
+namespace {
+
+// The cost of each counted event in medium steps: least-squares fits to the phase times of
+// single-threaded runs of the three candidates on smoke.json, smoke1 and the Disney cloud over
+// the ground at 16 and 64 spp (README, "Choosing an integrator"; 65 ns a render step), rounded.
+// Renders: steps 1, Embree queries 0.93, lookups 2.2, gathered photons 1.1, within 8% of every
+// run's time; photon passes with their kd-tree: steps 0.91, interactions 6.7, within 11%; tables
+// 0.8-2.2 per node.
+constexpr double kRayWork = 1.0;          // an Embree query
+constexpr double kLookupWork = 2.0;       // a volume-map, guide or sun-grid lookup
+constexpr double kGatheredWork = 1.0;     // a photon a lookup gathered from a kd-tree
+constexpr double kInteractionWork = 7.0;  // a photon path's interaction (Embree, deposit)
+constexpr double kNodeWork = 1.5;         // a node of a table built once per render
+
+// Each pilot image takes about 1/kPilotShare of the render's samples, from at least
+// kPilotMinTiles tiles.
+constexpr int kPilotShare = 512;
+constexpr int kPilotMinTiles = 8;
+constexpr double kPilotMinPhotons = 1.0 / 16.0;
+
+// Pixel (x, y) is in the pilot's tiles (render/tiles.h: 16x16 tiles, rows in turn).
+bool in_share(int x, int y, int tiles_x, int count) {
+    return ((y / 16) * tiles_x + x / 16) % count == 0;
+}
+
+}  // namespace
+
+Work work_units(const Report& r) {
+    Work w;
+    w.render = double(r.steps) + kRayWork * double(r.rays) + kLookupWork * double(r.lookups) +
+               kGatheredWork * double(r.gathered);
+    w.photons = double(r.photon_steps) + kInteractionWork * double(r.photon_interactions);
+    w.fixed = kNodeWork * double(r.precompute_nodes);
+    return w;
+}
+
+Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+    const int width = desc.camera.width, height = desc.camera.height;
+    const int tiles_x = (width + 15) / 16, tiles = tiles_x * ((height + 15) / 16);
+    Pilot pilot;
+    // As many tiles as the share allows at 1 spp (1 in 512 / spp; all of them, at spp / 512,
+    // from 512 spp), for the variance of many pixels. A count prime to the tiles of a row
+    // spreads the share diagonally, not in columns.
+    pilot.tile_count =
+        std::clamp(kPilotShare / desc.render.spp, 1, std::max(1, tiles / kPilotMinTiles));
+    while (pilot.tile_count > 1 && std::gcd(pilot.tile_count, tiles_x) != 1) --pilot.tile_count;
+    pilot.spp = std::max(1, desc.render.spp * pilot.tile_count / kPilotShare);
+    const double f = double(pilot.spp) / desc.render.spp;  // the pilot's share of the samples
+    // Photon budgets and attempts scale with the samples, so that the map's variance stands to
+    // the camera paths' as in the render, but not below 1/16 (pilot.h).
+    const double f_photons = std::max(f, kPilotMinPhotons);
+    const auto scaled = [f_photons](uint64_t n) {
+        return n == 0 ? 0
+                      : std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(n * f_photons)));
+    };
+
+    const Integrator kinds[] = {Integrator::Photon, Integrator::Path, Integrator::Guided};
+    std::vector<Image> images;  // candidate c, seed k at 2c + k
+    for (const Integrator kind : kinds) {
+        PilotCandidate c;
+        c.integrator = kind;
+        Work work;
+        double pixels = 0.0;
+        for (uint64_t k = 0; k < 2; ++k) {
+            SceneDesc d = desc;
+            d.render.integrator = kind;
+            d.render.auto_media = false;
+            d.render.spp = pilot.spp;
+            d.render.seed = mix64(desc.render.seed ^ (0x70696c6f74000000ull + k));
+            d.render.tile_count = pilot.tile_count;
+            d.photons.global = scaled(d.photons.global);
+            d.photons.caustic = scaled(d.photons.caustic);
+            d.photons.volume = scaled(d.photons.volume);
+            d.photons.max_emitted = scaled(d.photons.max_emitted);
+            // The photon integrator's attempts rule, scaled; the guided tracer's volume map
+            // closes by it too (else it would fill, in thin media after many times the work).
+            if (kind != Integrator::Path) d.photons.volume_attempts = scaled(volume_attempts(desc));
+            PipelineResult run = run_on_scene(d, scene, shared);
+            const Work w = work_units(run.report);
+            work.render += 0.5 * w.render;
+            work.photons += 0.5 * w.photons;
+            work.fixed = std::max(work.fixed, w.fixed);  // shared tables: built once
+            pixels = double(run.report.samples) / pilot.spp;
+            images.push_back(std::move(run.film.beauty));
+        }
+        // The full render: every pixel (the pilot has `pixels`) at 1/f the samples, 1/f_photons
+        // the photons, and the tables once.
+        c.work = work.fixed + work.photons / f_photons +
+                 work.render * (double(width) * height / std::max(pixels, 1.0)) / f;
+        pilot.candidates.push_back(c);
+    }
+    // relMSE as bench measures it, Σ d² / (y² + 0.01) over pixels and channels; d² estimated
+    // from two independent images a, b as (a − b)² / 2, y by the median of the pilot's images
+    // averaged over the pixel's 5 × 5 neighbourhood in the share. (Their mean at the pixel alone
+    // is so noisy, a firefly weighing its own pixel down, that the noisiest candidate's error
+    // came out 3x low at 1 spp on the Disney cloud.)
+    Image median(width, height);
+    std::vector<float> values(images.size());
+    for (size_t i = 0; i < median.pixels.size(); ++i)
+        for (int ch = 0; ch < 3; ++ch) {
+            for (size_t k = 0; k < images.size(); ++k) values[k] = images[k].pixels[i][ch];
+            std::sort(values.begin(), values.end());
+            const size_t h = values.size() / 2;
+            median.pixels[i][ch] = 0.5f * (values[h - 1] + values[h]);
+        }
+    std::vector<double> sums(pilot.candidates.size(), 0.0);
+    double count = 0.0;
+    for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+            if (!in_share(x, y, tiles_x, pilot.tile_count)) continue;
+            DVec3 value(0.0);
+            double n = 0.0;
+            for (int v = std::max(0, y - 2); v <= std::min(height - 1, y + 2); ++v)
+                for (int u = std::max(0, x - 2); u <= std::min(width - 1, x + 2); ++u)
+                    if (in_share(u, v, tiles_x, pilot.tile_count)) {
+                        value += DVec3(median.at(u, v));
+                        n += 1.0;
+                    }
+            value /= n;
+            for (int ch = 0; ch < 3; ++ch) {
+                for (size_t c = 0; c < sums.size(); ++c) {
+                    const double d =
+                        double(images[2 * c].at(x, y)[ch]) - images[2 * c + 1].at(x, y)[ch];
+                    sums[c] += 0.5 * d * d / (value[ch] * value[ch] + 0.01);
+                }
+                count += 1.0;
+            }
+        }
+    for (size_t c = 0; c < sums.size(); ++c) {
+        pilot.candidates[c].rel_mse = count > 0.0 ? f * sums[c] / count : 0.0;
+        if (pilot.candidates[c].score() < pilot.candidates[pilot.best].score()) pilot.best = c;
+    }
+    return pilot;
+}
+
+SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
+    if (!desc.render.auto_media) return desc;
+    if (desc.progressive.enabled()) {
+        desc.render.auto_reason += " (progressive runs need the photon integrator: no pilot)";
+        return desc;
+    }
+    const Pilot pilot = run_pilot(desc, scene, shared);
+    const PilotCandidate& best = pilot.candidates[pilot.best];
+    std::string scores;
+    for (const PilotCandidate& c : pilot.candidates) {
+        char text[64];
+        std::snprintf(text, sizeof text, "%s%s %.2g", scores.empty() ? "" : ", ",
+                      to_string(c.integrator), best.score() > 0.0 ? c.score() / best.score() : 1.0);
+        scores += text;
+    }
+    char text[160];
+    std::snprintf(text, sizeof text,
+                  "; a pilot (1 in %d tiles, %d spp, two seeds) measured relMSE x work relative "
+                  "to the best: ",
+                  pilot.tile_count, pilot.spp);
+    if (best.integrator == Integrator::Guided)  // as piloted (before the integrator changes)
+        desc.photons.volume_attempts = volume_attempts(desc);
+    desc.render.integrator = best.integrator;
+    desc.render.auto_reason = "auto: media under sun, sky or area lights" + std::string(text) +
+                              scores + " -> " + to_string(best.integrator);
+    if (best.integrator == Integrator::Photon && desc.volume.gather_depth > 0)
+        desc.render.auto_reason += " (camera paths ending in the volume map at vertex " +
+                                   std::to_string(desc.volume.gather_depth) + ")";
+    return desc;
+}
+
+}  // namespace fogmap

@@ -1,0 +1,58 @@
+#pragma once
+// auto's pilot for media under sun, sky or area lights (README, "Choosing an integrator"): each
+// candidate integrator — photon with camera paths ending in the volume map, path, guided —
+// renders a share of the image's tiles with about 1/512 of the render's samples, twice with
+// independent seeds; photon budgets and the volume map's attempts scale with the samples, but
+// to 1/16 at least (fewer photons would widen the volume map's radius and end its camera paths
+// later than the render's). The two images' difference gives each candidate's variance, hence
+// the relMSE it would reach at the scene's sample count; the work it did, counted, gives the
+// work of the whole render; the candidate with the least relMSE × work is picked. Work is
+// counted (medium steps, Embree rays, lookups, gathered photons, photon interactions, table
+// nodes, each weighed by its cost measured once: work_units), not timed, so the choice is the
+// same on every run, machine, thread and rank count, as the image must be. The guided tracer's
+// volume map closes by the photon integrator's attempts rule, in the pilot and when picked.
+
+#include "scene/scene_desc.h"
+
+#include <string>
+#include <vector>
+
+namespace fogmap {
+
+struct Report;
+struct Scene;
+struct SharedTables;
+
+/// A report's work in units of one medium step (a density evaluation or a tentative collision):
+/// the render's, the photon pass's, and the tables' built once per render (which do not grow
+/// with the samples).
+struct Work {
+    double render = 0.0, photons = 0.0, fixed = 0.0;
+};
+Work work_units(const Report& report);
+
+struct PilotCandidate {
+    Integrator integrator = Integrator::Path;
+    double rel_mse = 0.0;  ///< predicted for the full render (channel-averaged, as bench's)
+    double work = 0.0;     ///< predicted for the full render, work_units
+    double score() const { return rel_mse * work; }
+};
+
+struct Pilot {
+    int tile_count = 1;  ///< the pilot renders the tiles t ≡ 0 (mod tile_count)
+    int spp = 1;         ///< per pilot image
+    std::vector<PilotCandidate> candidates;  ///< photon, path, guided
+    size_t best = 0;                         ///< the least score (the first of equal ones)
+};
+
+/// Runs the pilot of `desc` (render.integrator auto, media under sun, sky or area lights:
+/// render.auto_media) on `scene`, loaded from it. Deterministic for a given description.
+/// `shared` (may be null): the tables the pilot's runs share, and leave to the render.
+Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared = nullptr);
+
+/// `desc` with the pilot's pick as its integrator and the measured reason appended to
+/// render.auto_reason; progressive runs keep the photon integrator (the others have no
+/// iterations) without a pilot. Any description without render.auto_media is returned unchanged.
+SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared = nullptr);
+
+}  // namespace fogmap
