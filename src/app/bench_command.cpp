@@ -35,6 +35,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// `d` running integrator `i` as if the scene named it: no choice of auto left (its pilot would
+/// otherwise pick again).
+SceneDesc with_integrator(SceneDesc d, Integrator i) {
+    d.render.integrator = i;
+    d.render.auto_reason.clear();
+    d.render.auto_media = false;
+    return d;
+}
+
 struct BenchArgs {
     std::string scene;
     std::string reference;  ///< "" = none
@@ -257,12 +266,13 @@ int run_bench(const BenchArgs& args, Ranks* world) {
         try {
             runs.push_back(load_scene_desc(args.scene, overrides));  // the normal checks
             // The sweep measures the photon maps, the path tracer runs beside it (--path-spp):
-            // a run that leaves the integrator to auto uses the photon integrator.
-            if (!runs.back().render.auto_reason.empty()) {
-                runs.back().render.integrator = Integrator::Photon;
-                runs.back().render.auto_reason.clear();
-                runs.back().render.auto_media = false;  // thin media too
-            }
+            // a run that leaves the integrator to auto uses the photon integrator, unless
+            // --set or --sweep names auto (then it runs as `fogmap render` does, its pilot
+            // timed with it: method "auto" where a pilot decides).
+            const bool named_auto = std::find(overrides.begin(), overrides.end(),
+                                              "render.integrator=auto") != overrides.end();
+            if (!runs.back().render.auto_reason.empty() && !named_auto)
+                runs.back() = with_integrator(runs.back(), Integrator::Photon);
             runs.back().render.threads = std::min(runs.back().render.threads, thread_count(0));
         } catch (const InputError& e) {
             // Name the --sweep a bad value came from rather than the --set it was applied as.
@@ -281,8 +291,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
         run_values.push_back(values);
     }
     for (int spp : path_spp) {
-        SceneDesc d = base;
-        d.render.integrator = Integrator::Path;
+        SceneDesc d = with_integrator(base, Integrator::Path);
         d.render.spp = spp;
         runs.push_back(d);
         run_values.emplace_back(keys.size());
@@ -298,8 +307,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
         // Cache name: FNV-1a of the reference's full scene JSON (to_json: every setting, with
         // integrator path, spp N, the reference seed, threads 0) plus the absolute folder that
         // relative files resolve against; so any change of scene or settings renders anew.
-        SceneDesc d = base;
-        d.render.integrator = Integrator::Path;
+        SceneDesc d = with_integrator(base, Integrator::Path);
         d.render.spp = args.reference_spp;
         d.render.seed = base.render.seed + kReferenceSeedOffset;
         d.render.threads = 0;

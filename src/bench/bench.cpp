@@ -92,7 +92,7 @@ double median(std::vector<double> v) {
 
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference, Ranks* ranks) {
     BenchRow row;
-    row.method = to_string(desc.render.integrator);
+    row.method = desc.render.auto_media ? "auto" : to_string(desc.render.integrator);
     row.spp = desc.render.spp;
     row.repeats = std::max(repeats, 1);
     std::vector<std::vector<double>> phases(kBenchPhases.size());

@@ -1,16 +1,17 @@
 #pragma once
 // auto's pilot for media under sun, sky or area lights (README, "Choosing an integrator"): each
 // candidate integrator — photon with camera paths ending in the volume map, path, guided —
-// renders a share of the image's tiles with about 1/512 of the render's samples, twice with
-// independent seeds; photon budgets and the volume map's attempts scale with the samples, but
-// to 1/16 at least (fewer photons would widen the volume map's radius and end its camera paths
-// later than the render's). The two images' difference gives each candidate's variance, hence
-// the relMSE it would reach at the scene's sample count; the work it did, counted, gives the
-// work of the whole render; the candidate with the least relMSE × work is picked. Work is
-// counted (medium steps, Embree rays, lookups, gathered photons, photon interactions, table
-// nodes, each weighed by its cost measured once: work_units), not timed, so the choice is the
-// same on every run, machine, thread and rank count, as the image must be. The guided tracer's
-// volume map closes by the photon integrator's attempts rule, in the pilot and when picked.
+// renders a share of the image's tiles with about 1/512 of the render's samples (at 4 spp and
+// from 8 tiles at least), twice with independent seeds; photon budgets and the volume map's
+// attempts scale with the samples, but to 1/16 at least (fewer photons would widen the volume map's
+// radius and end its camera paths later than the render's). The two images' difference gives each
+// candidate's variance, hence the relMSE it would reach at the scene's sample count; the work it
+// did, counted, gives the work of the whole render; the candidate with the least relMSE × work is
+// picked. Work is counted (medium steps, Embree rays, lookups, gathered photons, photon
+// interactions, table nodes, each weighed by its cost measured once: work_units), not timed, so the
+// choice is the same on every run, machine, thread and rank count, as the image must be. The guided
+// tracer's volume map closes by the photon integrator's attempts rule, in the pilot and when
+// picked.
 
 #include "scene/scene_desc.h"
 

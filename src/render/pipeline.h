@@ -1,9 +1,10 @@
 #pragma once
-// The whole run of one scene description (DESIGN.md, Pipeline): plan and load once, then one loop
-// of iterations — photon pass with the iteration's seed, kd-trees, render with the iteration's
-// gather — accumulated into one film; timed by phase, with no files written. A plain render is one
-// iteration; progressive photon mapping (Knaus & Zwicker 2011) runs until its count or time
-// budget. `fogmap render` and `fogmap bench` both call it, so every run is measured the same way.
+// The whole run of one scene description (DESIGN.md, Pipeline): plan and load once (and where
+// auto leaves it to a pilot, pick the integrator: render/pilot.h), then one loop of iterations —
+// photon pass with the iteration's seed, kd-trees, render with the iteration's gather — accumulated
+// into one film; timed by phase, with no files written. A plain render is one iteration;
+// progressive photon mapping (Knaus & Zwicker 2011) runs until its count or time budget. `fogmap
+// render` and `fogmap bench` both call it, so every run is measured the same way.
 
 #include "core/image.h"
 #include "render/checkpoint.h"

@@ -94,13 +94,31 @@ TEST(ParetoFrontier, MonotoneTradeOffKeepsEveryPoint) {
 TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     const std::vector<std::string> keys = {"photons.volume", "volume.k"};
     const std::string header = bench_csv_header(keys);
-    const std::vector<std::string> expected = {
-        "method",        "photons.volume", "volume.k",          "spp",
-        "repeats",       "ranks",          "threads",           "load_s",
-        "photon_pass_s", "build_global_s", "build_caustic_s",   "build_volume_s",
-        "precompute_s",  "render_s",       "photon_exchange_s", "reduce_s",
-        "total_s",       "stored_global",  "stored_caustic",    "stored_volume",
-        "bytes",         "rmse",           "rel_mse",           "bias"};
+    const std::vector<std::string> expected = {"method",
+                                               "photons.volume",
+                                               "volume.k",
+                                               "spp",
+                                               "repeats",
+                                               "ranks",
+                                               "threads",
+                                               "load_s",
+                                               "pilot_s",
+                                               "photon_pass_s",
+                                               "build_global_s",
+                                               "build_caustic_s",
+                                               "build_volume_s",
+                                               "precompute_s",
+                                               "render_s",
+                                               "photon_exchange_s",
+                                               "reduce_s",
+                                               "total_s",
+                                               "stored_global",
+                                               "stored_caustic",
+                                               "stored_volume",
+                                               "bytes",
+                                               "rmse",
+                                               "rel_mse",
+                                               "bias"};
     ASSERT_EQ(header.back(), '\n');
     EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
 
@@ -192,7 +210,7 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     ASSERT_EQ(lines.size(), 8u);
     EXPECT_EQ(lines.back(), "");
     const std::vector<std::string> header = split(lines[0], ',');
-    ASSERT_EQ(header.size(), 24u);
+    ASSERT_EQ(header.size(), 25u);
     EXPECT_EQ(header[1], "photons.volume");
     EXPECT_EQ(header[2], "volume.k");
     const std::vector<std::vector<std::string>> expected = {
@@ -263,14 +281,15 @@ TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
 }
 
 TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
-    // Without render.integrator the scene resolves to the path tracer (a sun over a medium);
-    // the swept runs still measure the photon maps, as the bench's summary says they do.
+    // Without render.integrator a pilot would pick (a sun over a medium); the swept runs still
+    // measure the photon maps, as the bench's summary says they do, unless they name auto.
     std::string scene = slurp(dir_ / "tiny.json");
     const std::string named = R"("integrator": "photon", )";
     ASSERT_NE(scene.find(named), std::string::npos);
     scene.erase(scene.find(named), named.size());
     std::ofstream(dir_ / "tiny.json") << scene;
-    const RunResult r = run("--reference-spp 4 --sweep photons.volume=300 --path-spp 1" + outputs());
+    const RunResult r =
+        run("--reference-spp 4 --sweep photons.volume=300 --path-spp 1" + outputs());
     ASSERT_EQ(r.code, 0) << r.err;
     const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
     ASSERT_EQ(lines.size(), 4u);  // header, the swept run, the path run, ""
@@ -282,6 +301,20 @@ TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
     // Closed after 300 attempts (96 camera samples: the rule's floor, its budget) below 300.
     EXPECT_GT(std::stoi(split(lines[1], ',')[stored]), 0);
     EXPECT_EQ(split(lines[2], ',')[0], "path");
+
+    // Named, auto runs as `fogmap render` runs it: its pilot timed with it.
+    const RunResult a =
+        run("--reference-spp 4 --sweep render.integrator=auto,photon --path-spp none" + outputs());
+    ASSERT_EQ(a.code, 0) << a.err;
+    const std::vector<std::string> rows = split(slurp(dir_ / "out" / "b.csv"), '\n');
+    ASSERT_EQ(rows.size(), 4u);  // header, auto, photon, ""
+    const size_t pilot = static_cast<size_t>(
+        std::find(header.begin(), header.end(), "pilot_s") - header.begin());
+    ASSERT_LT(pilot, header.size());
+    EXPECT_EQ(split(rows[1], ',')[0], "auto");
+    EXPECT_GT(std::stod(split(rows[1], ',')[pilot]), 0.0);
+    EXPECT_EQ(split(rows[2], ',')[0], "photon");
+    EXPECT_EQ(std::stod(split(rows[2], ',')[pilot]), 0.0);
 }
 
 TEST_F(BenchCommand, SceneNamedWithoutAFolderCachesItsReference) {
