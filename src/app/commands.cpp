@@ -15,6 +15,7 @@
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/metrics.h"
+#include "render/pilot.h"
 #include "render/pipeline.h"
 #include "render/report.h"
 #include "scene/scene.h"
@@ -276,6 +277,18 @@ int run_render(const RenderArgs& args) {
                                          ": no such file");
             }
     });
+    // auto's pilot runs once, on the first frame, for the whole sequence (every rank alike: it is
+    // deterministic): one integrator for every frame, whose noise and blur do not change mid-shot.
+    SceneDesc shot = desc;
+    if (shot.render.auto_media && !shot.progressive.enabled()) {
+        const SceneDesc first = frame_desc(shot, frames.front());
+        std::unique_ptr<const Scene> scene;
+        agree_on_input(args.ranks, [&] { scene = load_scene(first); });
+        shot = pilot_auto(shot, *scene);
+        shot.render.auto_media = false;
+        shot.render.auto_reason += " (on frame " + std::to_string(frames.front()) +
+                                   ", for every frame of --frames " + args.frames + ")";
+    }
     // Under mpirun the ranks form groups, dealt the frames round-robin; a group's ranks split
     // its frames' iterations, and its rank 0 writes them.
     const int world = args.ranks ? args.ranks->size() : 1;
@@ -299,7 +312,7 @@ int run_render(const RenderArgs& args) {
         if (!args.quiet && speaks) std::fprintf(stderr, "frame %d\n", f);
         Report report;
         try {
-            report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr);
+            report = render_and_write(frame_args, frame_desc(shot, f), exr_f, png_f, nullptr);
         } catch (const InputError& e) {  // say which frame
             const InputError framed(e.file, e.field,
                                     e.reason + " (frame " + std::to_string(f) + ")");

@@ -27,10 +27,9 @@ constexpr double kInteractionWork = 7.0;  // a photon path's interaction (Embree
 constexpr double kNodeWork = 1.5;         // a node of a table built once per render
 
 // Each pilot image takes about 1/kPilotShare of the render's samples, from at least
-// kPilotMinTiles tiles, at kPilotSpp samples a pixel at least: at 1 spp, without the render's
-// N-rooks pixel positions, every candidate's relMSE came out 1.5-1.7x high on smoke.json, and
-// alike but for smoke1 at three tenths of its σ, which the path tracer then took although the
-// photon integrator had 1.4x lower relMSE x time.
+// kPilotMinTiles tiles, at kPilotSpp samples a pixel at least: at 1 spp (no N-rooks pixel
+// positions) every candidate's relMSE came out 1.5-1.7x high on smoke.json, and the pick on
+// smoke1 at three tenths of its σ went to the path tracer, 1.47x behind the photon integrator.
 constexpr int kPilotShare = 512;
 constexpr int kPilotMinTiles = 8;
 constexpr int kPilotSpp = 4;
@@ -155,7 +154,9 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
 SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
     if (!desc.render.auto_media) return desc;
     if (desc.progressive.enabled()) {
-        desc.render.auto_reason += " (progressive runs need the photon integrator: no pilot)";
+        desc.render.auto_reason =
+            "auto: media under sun, sky or area lights, and progressive iterations, which the "
+            "photon integrator alone runs (no pilot)";
         return desc;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);

@@ -6,6 +6,7 @@
 #include "test_support.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <string>
@@ -58,6 +59,26 @@ TEST_F(Sequence, EveryFrameRendersFromItsOwnFileAndResumeSkipsFinishedOnes) {
     EXPECT_TRUE(same_pixels(read_exr(at("out/f.0002.exr")), frames[1]));
     EXPECT_EQ(r.out.find("frame 1\n"), std::string::npos) << "frame 1 was not rendered again";
     EXPECT_NE(r.out.find("frame 2\n"), std::string::npos) << r.out;
+}
+
+TEST_F(Sequence, AutoPicksOnceForTheWholeSequence) {
+    make_sequence(3);
+    const test::RunResult r =
+        run("render -q --json " + at("s.json") + " --set render.integrator=auto --frames 1-3 -o " +
+            at("out/a.####.exr"));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const nlohmann::json reports = nlohmann::json::parse(r.out);
+    ASSERT_EQ(reports.size(), 3u);
+    const std::string first = reports[0]["plan"]["integrator"]["reason"];
+    EXPECT_NE(first.find("a pilot"), std::string::npos) << first;
+    EXPECT_NE(first.find("(on frame 1, for every frame of --frames 1-3)"), std::string::npos)
+        << first;
+    for (const nlohmann::json& report : reports) {
+        EXPECT_EQ(report["plan"]["integrator"]["reason"], first);
+        EXPECT_EQ(report["settings"]["render"]["integrator"],
+                  reports[0]["settings"]["render"]["integrator"]);
+        EXPECT_EQ(report["time_s"].count("pilot"), 0u);  // no pilot of its own
+    }
 }
 
 TEST_F(Sequence, AMissingFrameFileNamesTheFrameBeforeAnyWork) {

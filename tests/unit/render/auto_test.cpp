@@ -96,8 +96,9 @@ TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
     }
     SceneDesc progressive = small_smoke(64, 0.03f);  // the others have no iterations
     progressive.progressive.iterations = 4;
-    EXPECT_EQ(pilot_auto(progressive, *load_scene(progressive)).render.integrator,
-              Integrator::Photon);
+    const SceneDesc kept = pilot_auto(progressive, *load_scene(progressive));
+    EXPECT_EQ(kept.render.integrator, Integrator::Photon);
+    EXPECT_NE(kept.render.auto_reason.find("progressive iterations"), std::string::npos);
     SceneDesc named = small_smoke(64, 0.03f);  // a scene that names its integrator keeps it
     named.render.auto_media = false;
     EXPECT_EQ(pilot_auto(named, *load_scene(named)).render.integrator, Integrator::Photon);
