@@ -114,9 +114,16 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
         desc = pilot_auto(std::move(desc), *scene, &shared);
         pilot_s = pilot.seconds();
     }
-    return run_loaded(
-        desc, *scene,
-        {quiet, false, reference, ranks, checkpoints, &timer, load_s, pilot_s, &shared});
+    RunOptions o;
+    o.quiet = quiet;
+    o.reference = reference;
+    o.ranks = ranks;
+    o.checkpoints = checkpoints;
+    o.timer = &timer;
+    o.load_s = load_s;
+    o.pilot_s = pilot_s;
+    o.shared = &shared;
+    return run_loaded(desc, *scene, o);
 }
 
 PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {

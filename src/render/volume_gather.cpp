@@ -156,6 +156,7 @@ Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st) const 
         sum += factor * s.weight *
                volume_inscattered(*map_, s.x, -dir, PhaseMix(st.media, s.x), k_, radius_,
                                   st.neighbors);
+        st.gathered += st.neighbors.size();
     };
     const std::vector<MarchedStep>& steps = st.steps;
     const size_t m = static_cast<size_t>(lookups_per_ray_);

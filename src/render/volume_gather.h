@@ -49,7 +49,7 @@ public:
         std::vector<double> cdf;  ///< cumulative step weights
         uint64_t rays = 0;        ///< Embree queries of shadow rays
         uint64_t lookups = 0;     ///< volume-map lookups (sphere) or photons visited (beam)
-        uint64_t gathered = 0;    ///< not counted (the pilot's candidates trace paths)
+        uint64_t gathered = 0;    ///< photons the sphere lookups gathered
         Color emitted{0.0f};      ///< the marched segment's emission, Σ weight σ_a L_e
     };
     State make_state() const;

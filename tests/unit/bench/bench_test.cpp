@@ -35,6 +35,11 @@ std::vector<std::string> split(const std::string& s, char sep) {
     return out;
 }
 
+/// The index of CSV column `name` in `header` (header.size() when absent).
+size_t column(const std::vector<std::string>& header, const std::string& name) {
+    return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+}
+
 size_t count(const std::string& s, const std::string& needle) {
     size_t n = 0;
     for (size_t p = s.find(needle); p != std::string::npos; p = s.find(needle, p + 1)) ++n;
@@ -94,31 +99,17 @@ TEST(ParetoFrontier, MonotoneTradeOffKeepsEveryPoint) {
 TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     const std::vector<std::string> keys = {"photons.volume", "volume.k"};
     const std::string header = bench_csv_header(keys);
-    const std::vector<std::string> expected = {"method",
-                                               "photons.volume",
-                                               "volume.k",
-                                               "spp",
-                                               "repeats",
-                                               "ranks",
-                                               "threads",
-                                               "load_s",
-                                               "pilot_s",
-                                               "photon_pass_s",
-                                               "build_global_s",
-                                               "build_caustic_s",
-                                               "build_volume_s",
-                                               "precompute_s",
-                                               "render_s",
-                                               "photon_exchange_s",
-                                               "reduce_s",
-                                               "total_s",
-                                               "stored_global",
-                                               "stored_caustic",
-                                               "stored_volume",
-                                               "bytes",
-                                               "rmse",
-                                               "rel_mse",
-                                               "bias"};
+    // In rows (clang-format would put the 25 names one to a line).
+    // clang-format off
+    const std::vector<std::string> expected = {
+        "method",         "photons.volume", "volume.k",        "spp",
+        "repeats",        "ranks",          "threads",         "load_s",
+        "pilot_s",        "photon_pass_s",  "build_global_s",  "build_caustic_s",
+        "build_volume_s", "precompute_s",   "render_s",        "photon_exchange_s",
+        "reduce_s",       "total_s",        "stored_global",   "stored_caustic",
+        "stored_volume",  "bytes",          "rmse",            "rel_mse",
+        "bias"};
+    // clang-format on
     ASSERT_EQ(header.back(), '\n');
     EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
 
@@ -216,9 +207,7 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     const std::vector<std::vector<std::string>> expected = {
         {"photon", "100", "5"},  {"photon", "100", "10"}, {"photon", "300", "5"},
         {"photon", "300", "10"}, {"path", "", ""},        {"path", "", ""}};
-    auto col = [&](const char* name) {
-        return size_t(std::find(header.begin(), header.end(), name) - header.begin());
-    };
+    const auto col = [&](const char* name) { return column(header, name); };
     for (size_t i = 0; i < expected.size(); ++i) {
         const std::vector<std::string> f = split(lines[i + 1], ',');
         ASSERT_EQ(f.size(), header.size()) << lines[i + 1];
@@ -263,10 +252,7 @@ TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {
     ASSERT_EQ(lines.size(), 5u);  // header, 3 runs, ""
     const std::vector<std::string> header = split(lines[0], ',');
     EXPECT_EQ(header[1], "progressive.iterations");
-    const auto column = [&](const std::string& name) {
-        return static_cast<size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-    };
-    const size_t stored = column("stored_volume"), error = column("rel_mse");
+    const size_t stored = column(header, "stored_volume"), error = column(header, "rel_mse");
     ASSERT_LT(error, header.size());
     std::vector<double> rel_mse;
     for (int i = 1; i <= 3; ++i) {
@@ -294,8 +280,7 @@ TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
     const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
     ASSERT_EQ(lines.size(), 4u);  // header, the swept run, the path run, ""
     const std::vector<std::string> header = split(lines[0], ',');
-    const size_t stored = static_cast<size_t>(
-        std::find(header.begin(), header.end(), "stored_volume") - header.begin());
+    const size_t stored = column(header, "stored_volume");
     ASSERT_LT(stored, header.size());
     EXPECT_EQ(split(lines[1], ',')[0], "photon");
     // Closed after 300 attempts (96 camera samples: the rule's floor, its budget) below 300.
@@ -308,8 +293,7 @@ TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
     ASSERT_EQ(a.code, 0) << a.err;
     const std::vector<std::string> rows = split(slurp(dir_ / "out" / "b.csv"), '\n');
     ASSERT_EQ(rows.size(), 4u);  // header, auto, photon, ""
-    const size_t pilot = static_cast<size_t>(
-        std::find(header.begin(), header.end(), "pilot_s") - header.begin());
+    const size_t pilot = column(header, "pilot_s");
     ASSERT_LT(pilot, header.size());
     EXPECT_EQ(split(rows[1], ',')[0], "auto");
     EXPECT_GT(std::stod(split(rows[1], ',')[pilot]), 0.0);
