@@ -76,13 +76,20 @@ public:
 
     /// New travel direction after scattering of a path travelling along unit `dir`; *pdf = eval.
     Vec3 sample(const Vec3& dir, Rng& rng, float* pdf) const {
+        const float pick_u = n_ > 1 ? rng.uniform() : 0.0f;
+        const Vec2 u(rng.uniform(), rng.uniform());
+        return sample(dir, pick_u, u, pdf);
+    }
+    /// The same from given uniforms: `pick_u` picks the mixture's component (unused for one), `u`
+    /// the direction about it.
+    Vec3 sample(const Vec3& dir, float pick_u, Vec2 u, float* pdf) const {
         int pick = 0;
         if (n_ > 1) {
-            float u = rng.uniform() * total_;
-            while (pick + 1 < n_ && u >= w_[pick]) u -= w_[pick++];
+            float v = pick_u * total_;
+            while (pick + 1 < n_ && v >= w_[pick]) v -= w_[pick++];
         }
         float component_pdf;
-        const Vec3 d = hg_sample(dir, g_[pick], Vec2(rng.uniform(), rng.uniform()), &component_pdf);
+        const Vec3 d = hg_sample(dir, g_[pick], u, &component_pdf);
         *pdf = n_ == 1 ? component_pdf : eval(glm::dot(dir, d));
         return d;
     }

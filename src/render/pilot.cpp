@@ -1,6 +1,7 @@
 #include "render/pilot.h"
 
 #include "core/rng.h"
+#include "render/path_tracer.h"
 #include "render/pipeline.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
@@ -34,6 +35,7 @@ constexpr int kPilotShare = 512;
 constexpr int kPilotMinTiles = 8;
 constexpr int kPilotSpp = 4;
 constexpr double kPilotMinPhotons = 1.0 / 16.0;
+static_assert(kPilotSpp % kStrataGroup == 0, "the pilot's samples stratify as the render's");
 
 // Pixel (x, y) is in the pilot's tiles (render/tiles.h: 16x16 tiles, rows in turn).
 bool in_share(int x, int y, int tiles_x, int count) {

@@ -419,12 +419,13 @@ bool wait_for_bytes(const fs::path& file, uintmax_t bytes, pid_t child) {
     return false;
 }
 
-/// One path-traced sample per pixel of a diffuse ground under the sky, filling the image: no
-/// warnings, and noise that ZIP barely compresses (a 1024^2 EXR takes about a second to write).
+/// One path-traced sample per pixel of a diffuse ground under a wide quad light, filling the image:
+/// no warnings, and noise that ZIP barely compresses (a 1024^2 EXR takes about a second to write).
 std::string noisy_scene(const test::TempDir& tmp, int size) {
     json doc = json::parse(R"({
       "camera": {"position": [0, 3, 0.01], "look_at": [0, 0, 0], "fov_deg": 60},
-      "lights": [{"type": "environment", "radiance": 1}],
+      "lights": [{"type": "quad", "corner": [-20, 4, -20], "edge_u": [40, 0, 0],
+                  "edge_v": [0, 0, 40], "radiance": 1}],
       "materials": {"ground": {"type": "diffuse", "albedo": 0.5}},
       "shapes": [{"type": "quad", "corner": [-50, 0, -50], "edge_u": [0, 0, 100],
                   "edge_v": [100, 0, 0], "material": "ground"}],

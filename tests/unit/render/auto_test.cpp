@@ -73,8 +73,9 @@ TEST(Pilot, PredictsTheFullRendersErrorAndWork) {
         const PilotCandidate& cand = pilot.candidates[c];
         const double measured = pair_rel_mse(pairs, c);
         SCOPED_TRACE(to_string(cand.integrator));
-        // 1.34x high for both (4 spp lack some of the N-rooks stratification of 64; 1.5-1.7x at
-        // 1 spp): what the pick rests on is their ratio, below.
+        // 1.47x high for photon, 1.12x for path (4 spp lack some of the N-rooks positions of 64;
+        // 1.5-1.7x at 1 spp; the first vertex's strata are groups of 4 in both): what the pick
+        // rests on is their ratio, below (1.19 predicted against 0.98 measured).
         EXPECT_NEAR(cand.rel_mse / measured, 1.0, 0.5) << cand.rel_mse << " vs " << measured;
         EXPECT_NEAR(cand.work / work[c], 1.0, 0.15) << cand.work << " vs " << work[c];
     }
@@ -84,13 +85,15 @@ TEST(Pilot, PredictsTheFullRendersErrorAndWork) {
     EXPECT_NEAR(predicted / measured, 1.0, 0.25) << predicted << " vs " << measured;
 }
 
+// At smoke.json's bench size (240x135; at 64x36 the two come out even since the first vertex's
+// samples are stratified: relMSE x work measured 0.98 of the path tracer's).
 TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
     for (const float scale : {1.0f, 0.03f}) {
-        SceneDesc desc = small_smoke(64, scale);
+        SceneDesc desc = small_smoke(64, scale, 240, 135);
         const SceneDesc picked = pilot_auto(desc, *load_scene(desc));
         EXPECT_EQ(picked.render.integrator, scale == 1.0f ? Integrator::Photon : Integrator::Path)
             << picked.render.auto_reason;
-        EXPECT_NE(picked.render.auto_reason.find("a pilot (1 in 1 tiles, 4 spp, two seeds)"),
+        EXPECT_NE(picked.render.auto_reason.find("a pilot (1 in 16 tiles, 4 spp, two seeds)"),
                   std::string::npos)
             << picked.render.auto_reason;
     }
