@@ -1,5 +1,6 @@
 #include "render/pilot.h"
 
+#include "core/image.h"
 #include "core/rng.h"
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <numeric>
+#include <vector>
 
 namespace fogmap {
 
@@ -37,10 +39,41 @@ constexpr int kPilotSpp = 4;
 constexpr double kPilotMinPhotons = 1.0 / 16.0;
 static_assert(kPilotSpp % kStrataGroup == 0, "the pilot's samples stratify as the render's");
 
-// Pixel (x, y) is in the pilot's tiles (render/tiles.h: 16x16 tiles, rows in turn).
-bool in_share(int x, int y, int tiles_x, int count) {
-    return ((y / 16) * tiles_x + x / 16) % count == 0;
-}
+// The pilot's pixels, the tiles t ≡ 0 (mod count) of render/tiles.h's 16x16 tiles (rows in
+// turn), kept in one compact array: each of those tiles' rows in turn, so the pilot holds 1/count
+// of an image per run instead of a whole one.
+class ShareLayout {
+public:
+    ShareLayout(int width, int height, int count)
+        : width_(width), height_(height), tiles_x_((width + 15) / 16), count_(count) {
+        const int tiles = tiles_x_ * ((height + 15) / 16);
+        for (int t = 0; t < tiles; t += count) {
+            offset_.push_back(size_);
+            const int x0 = (t % tiles_x_) * 16, y0 = (t / tiles_x_) * 16;
+            size_ += size_t(std::min(16, width - x0)) * size_t(std::min(16, height - y0));
+        }
+    }
+    size_t size() const { return size_; }
+    bool contains(int x, int y) const { return ((y / 16) * tiles_x_ + x / 16) % count_ == 0; }
+    size_t index(int x, int y) const {  // of a pixel it contains
+        const int t = (y / 16) * tiles_x_ + x / 16, x0 = (x / 16) * 16;
+        return offset_[t / count_] + size_t(y % 16) * size_t(std::min(16, width_ - x0)) +
+               size_t(x - x0);
+    }
+    /// The share's pixels of a whole image.
+    std::vector<Color> gather(const Image& image) const {
+        std::vector<Color> out(size_);
+        for (int y = 0; y < height_; ++y)
+            for (int x = 0; x < width_; ++x)
+                if (contains(x, y)) out[index(x, y)] = image.at(x, y);
+        return out;
+    }
+
+private:
+    int width_, height_, tiles_x_, count_;
+    std::vector<size_t> offset_;  ///< per tile of the share
+    size_t size_ = 0;
+};
 
 }  // namespace
 
@@ -75,7 +108,8 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     };
 
     const Integrator kinds[] = {Integrator::Photon, Integrator::Path, Integrator::Guided};
-    std::vector<Image> images;  // candidate c, seed k at 2c + k
+    const ShareLayout share(width, height, pilot.tile_count);
+    std::vector<std::vector<Color>> images;  // candidate c, seed k at 2c + k: the share's pixels
     for (const Integrator kind : kinds) {
         PilotCandidate c;
         c.integrator = kind;
@@ -101,7 +135,7 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             work.photons += 0.5 * w.photons;
             work.fixed = std::max(work.fixed, w.fixed);  // shared tables: built once
             pixels = double(run.report.samples) / pilot.spp;
-            images.push_back(std::move(run.film.beauty));
+            images.push_back(share.gather(run.film.beauty));
         }
         // The full render: every pixel (the pilot has `pixels`) at 1/f the samples, 1/f_photons
         // the photons, and the tables once.
@@ -114,33 +148,33 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     // averaged over the pixel's 5 × 5 neighbourhood in the share. (Their mean at the pixel alone
     // is so noisy, a firefly weighing its own pixel down, that the noisiest candidate's error
     // came out 3x low at 1 spp on the Disney cloud.)
-    Image median(width, height);
+    std::vector<Color> median(share.size());
     std::vector<float> values(images.size());
-    for (size_t i = 0; i < median.pixels.size(); ++i)
+    for (size_t i = 0; i < median.size(); ++i)
         for (int ch = 0; ch < 3; ++ch) {
-            for (size_t k = 0; k < images.size(); ++k) values[k] = images[k].pixels[i][ch];
+            for (size_t k = 0; k < images.size(); ++k) values[k] = images[k][i][ch];
             std::sort(values.begin(), values.end());
             const size_t h = values.size() / 2;
-            median.pixels[i][ch] = 0.5f * (values[h - 1] + values[h]);
+            median[i][ch] = 0.5f * (values[h - 1] + values[h]);
         }
     std::vector<double> sums(pilot.candidates.size(), 0.0);
     double count = 0.0;
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
-            if (!in_share(x, y, tiles_x, pilot.tile_count)) continue;
+            if (!share.contains(x, y)) continue;
             DVec3 value(0.0);
             double n = 0.0;
             for (int v = std::max(0, y - 2); v <= std::min(height - 1, y + 2); ++v)
                 for (int u = std::max(0, x - 2); u <= std::min(width - 1, x + 2); ++u)
-                    if (in_share(u, v, tiles_x, pilot.tile_count)) {
-                        value += DVec3(median.at(u, v));
+                    if (share.contains(u, v)) {
+                        value += DVec3(median[share.index(u, v)]);
                         n += 1.0;
                     }
             value /= n;
+            const size_t i = share.index(x, y);
             for (int ch = 0; ch < 3; ++ch) {
                 for (size_t c = 0; c < sums.size(); ++c) {
-                    const double d =
-                        double(images[2 * c].at(x, y)[ch]) - images[2 * c + 1].at(x, y)[ch];
+                    const double d = double(images[2 * c][i][ch]) - images[2 * c + 1][i][ch];
                     sums[c] += 0.5 * d * d / (value[ch] * value[ch] + 0.01);
                 }
                 count += 1.0;

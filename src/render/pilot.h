@@ -7,11 +7,11 @@
 // radius and end its camera paths later than the render's). The two images' difference gives each
 // candidate's variance, hence the relMSE it would reach at the scene's sample count; the work it
 // did, counted, gives the work of the whole render; the candidate with the least relMSE × work is
-// picked. Work is counted (medium steps, Embree rays, lookups, gathered photons, photon
-// interactions, table nodes, each weighed by its cost measured once: work_units), not timed, so the
-// choice is the same on every run, machine, thread and rank count, as the image must be. The guided
-// tracer's volume map closes by the photon integrator's attempts rule, in the pilot and when
-// picked.
+// picked; the pilot keeps only its tiles' pixels of each image. Work is counted (medium steps,
+// Embree rays, lookups, gathered photons, photon interactions, table nodes, each weighed by its
+// cost measured once: work_units), not timed, so the choice is the same on every run, machine,
+// thread and rank count, as the image must be. The guided tracer's volume map closes by the photon
+// integrator's attempts rule, in the pilot and when picked.
 
 #include "scene/scene_desc.h"
 
