@@ -92,10 +92,14 @@ bool KernelDensity::corners(const Vec3& x, Corners* out) const {
         f[a] = u[a] - float(c[a]);
     }
     const size_t nx = dims_[0], ny = dims_[1];
+    const float inv = 1.0f / cell_;
     for (int n = 0; n < 8; ++n) {
         const int dx = n & 1, dy = (n >> 1) & 1, dz = n >> 2;
-        out->weight[n] =
-            (dx ? f[0] : 1.0f - f[0]) * (dy ? f[1] : 1.0f - f[1]) * (dz ? f[2] : 1.0f - f[2]);
+        const float wx = dx ? f[0] : 1.0f - f[0], wy = dy ? f[1] : 1.0f - f[1],
+                    wz = dz ? f[2] : 1.0f - f[2];
+        const float gx = dx ? inv : -inv, gy = dy ? inv : -inv, gz = dz ? inv : -inv;
+        out->weight[n] = wx * wy * wz;
+        out->gradient[n] = Vec3(gx * wy * wz, wx * gy * wz, wx * wy * gz);
         out->node[n] = ((c[2] + dz) * ny + c[1] + dy) * nx + c[0] + dx;
     }
     return true;
@@ -259,8 +263,10 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
                                  [&](const Moments& m) { return m.count > 2.0f * k_; });
 }
 
-bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m) const {
-    KernelDensity::Corners c;
+bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
+                               KernelDensity::Corners* corners) const {
+    KernelDensity::Corners local;
+    KernelDensity::Corners& c = corners ? *corners : local;
     if (!density_.corners(x, &c)) return false;
     *density = Color(0.0f);
     for (int n = 0; n < 8; ++n) {
@@ -285,29 +291,75 @@ float VolumeMapEnd::optical_radius(const Vec3& x) const {
     return max_component(density) * r;
 }
 
+// Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2, times 4π.
+Color VolumeMapEnd::phase_sum(const Moments& m, const Vec3& o, const PhaseMix& phase) {
+    const Color s1 = o.x * m.m1[0] + o.y * m.m1[1] + o.z * m.m1[2];
+    const Color s2 = o.x * o.x * m.m2[0] + o.y * o.y * m.m2[1] + o.z * o.z * m.m2[2] +
+                     2.0f * (o.x * o.y * m.m2[3] + o.x * o.z * m.m2[4] + o.y * o.z * m.m2[5]);
+    const float a1 = phase.legendre(1), a2 = phase.legendre(2);
+    return m.m0 + 3.0f * a1 * s1 + 2.5f * a2 * (3.0f * s2 - m.m0);
+}
+
+// LeanCorrection (header): ∂E/∂u by central differences of the grid's estimate half a radius
+// either side, u the direction in which σ̄_s grows.
+Color VolumeMapEnd::lean(const KernelDensity::Corners& c, const Vec3& x, const Color& density,
+                         const Vec3& o, const PhaseMix& phase, float rho) const {
+    Vec3 grad(0.0f);  // of the channels' summed σ̄_s
+    float sum = 0.0f;
+    for (int n = 0; n < 8; ++n) {
+        const Color& v = density_.node_value(c.node[n]);
+        grad += (v.x + v.y + v.z) * c.gradient[n];
+        sum += c.weight[n] * (v.x + v.y + v.z);
+    }
+    const float length = glm::length(grad);
+    // Where the centroid moves less than kLeanMinOffset ρ, the correction is left out.
+    if (!(sum > 0.0f) || (rho * rho / 5.0f) * length / sum < kLeanMinOffset * rho)
+        return Color(0.0f);
+    const Vec3 u = grad / length;
+    const float h = 0.5f * radius_;
+    Color dp, dm;
+    Moments mp, mm;
+    if (!interpolate(x + h * u, &dp, &mp) || !interpolate(x - h * u, &dm, &mm)) return Color(0.0f);
+    const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
+    const float scale = map_.photon_power * kInvFourPi / volume;
+    const Color ep = divide(glm::max(phase_sum(mp, o, phase), Color(0.0f)) * scale, dp);
+    const Color em = divide(glm::max(phase_sum(mm, o, phase), Color(0.0f)) * scale, dm);
+    Color out(0.0f);
+    for (int ch = 0; ch < 3; ++ch) {
+        if (!(density[ch] > 0.0f)) continue;
+        // The σ_s-weighted centroid's offset along u, at most a half ball's (3/8 ρ).
+        const float offset = std::min(
+            (rho * rho / 5.0f) * (dp[ch] - dm[ch]) / (2.0f * h) / density[ch], 0.375f * rho);
+        out[ch] = (ep[ch] - em[ch]) / (2.0f * h) * offset;
+    }
+    return out;
+}
+
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
                                 NeighborList& scratch) const {
     // σ̄_s and the photon counts from the grid (its moments too where it holds them).
     Color density(0.0f);
     Moments m;
-    if (!interpolate(x, &density, &m)) return Color(0.0f);
-    if (crowded(m.count)) return smaller_ball(x, dir, phase, m.count, scratch);
+    KernelDensity::Corners c;
+    if (!interpolate(x, &density, &m, &c)) return Color(0.0f);
+    // LeanCorrection (header), where the grid holds moments; bounded by half the estimate.
+    const auto corrected = [&](const Color& e, float rho) {
+        if (!interpolates()) return e;
+        return e - glm::clamp(lean(c, x, density, -dir, phase, rho), -0.5f * e, 0.5f * e);
+    };
+    if (crowded(m.count))
+        return corrected(smaller_ball(x, dir, phase, m.count, scratch),
+                         radius_ * std::cbrt(k_ / m.count));
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
     Color collisions(0.0f);
     if (interpolates()) {
-        // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2.
-        const Vec3 o = -dir;
-        const Color s1 = o.x * m.m1[0] + o.y * m.m1[1] + o.z * m.m1[2];
-        const Color s2 = o.x * o.x * m.m2[0] + o.y * o.y * m.m2[1] + o.z * o.z * m.m2[2] +
-                         2.0f * (o.x * o.y * m.m2[3] + o.x * o.z * m.m2[4] + o.y * o.z * m.m2[5]);
-        const float a1 = phase.legendre(1), a2 = phase.legendre(2);
-        const Color sum = m.m0 + 3.0f * a1 * s1 + 2.5f * a2 * (3.0f * s2 - m.m0);
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
-        collisions = glm::max(sum, Color(0.0f)) * (map_.photon_power * kInvFourPi / volume);
+        collisions = glm::max(phase_sum(m, -dir, phase), Color(0.0f)) *
+                     (map_.photon_power * kInvFourPi / volume);
     } else {
         collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
     }
-    return divide(collisions, density);
+    return corrected(divide(collisions, density), radius_);
 }
 
 // AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's
