@@ -1,6 +1,7 @@
 #include "render/gather_params.h"
 
 #include "photon/estimators.h"
+#include "scene/plan.h"
 
 #include <algorithm>
 #include <cmath>
@@ -43,7 +44,7 @@ GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const Phot
     p.caustic =
         map_gather(desc.caustic.k, desc.caustic.radius, 0.01f * diag, first.caustic, progressive);
     p.gather_depth = desc.volume.gather_depth;
-    p.volume = map_gather(desc.volume.k, desc.volume.radius, 0.05f * media_diag, first.volume,
+    p.volume = map_gather(volume_k(desc), desc.volume.radius, 0.05f * media_diag, first.volume,
                           progressive || p.gather_depth > 0);
     p.final_gather = desc.global.final_gather;
     p.gather_rays = desc.global.gather_rays;

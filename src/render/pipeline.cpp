@@ -171,8 +171,10 @@ PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene_ref, const R
     // photon/photon_pass.h).
     PhotonSettings photons = desc.photons;
     photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
-    if (photons.volume_attempts == 0)                     // unless set (auto's pilot)
+    if (photons.volume_attempts == 0) {                   // unless set (auto's pilot)
         photons.volume_attempts = volume_attempts(desc);  // the volume map's share of the work
+        photons.volume = volume_budget(desc);
+    }
     const bool progressive = photon && desc.progressive.enabled();
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;

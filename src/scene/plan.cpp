@@ -151,8 +151,9 @@ PlanItem plan_volume(const SceneDesc& desc) {
     for (const MediumDesc& m : desc.media) scattering += scatters(m) ? 1 : 0;
     if (scattering == 0) return off("media do not scatter");
     if (desc.photons.volume == 0) return off("photons.volume = 0");
-    return on(count(scattering, "scattering medium", "scattering media") + ", " +
-              budget(desc.photons.volume));
+    const uint64_t n = volume_budget(desc);
+    return on(count(scattering, "scattering medium", "scattering media") + ", " + budget(n) +
+              (n == desc.photons.volume ? "" : " (a photon per attempt: photons.volume not set)"));
 }
 
 PlanItem plan_global(const SceneDesc& desc, size_t diffuse) {
@@ -234,6 +235,21 @@ uint64_t volume_attempts(const SceneDesc& desc) {
                     desc.photons.volume);
 }
 
+uint64_t volume_budget(const SceneDesc& desc) {
+    const uint64_t attempts = volume_attempts(desc);
+    if (attempts == 0 || desc.photons.volume_given) return desc.photons.volume;
+    return std::min(attempts, kVolumeRuleMaxPhotons);
+}
+
+int volume_k(const SceneDesc& desc) {
+    if (desc.render.integrator != Integrator::Photon || desc.volume.gather_depth <= 0 ||
+        desc.volume.k_given)
+        return desc.volume.k;
+    bool peaked = false;
+    for (const MediumDesc& m : desc.media) peaked = peaked || !fits_moment_grid(m.g);
+    return peaked ? 2 * desc.volume.k : desc.volume.k;
+}
+
 Plan make_plan(const SceneDesc& scene_desc) {
     const SceneDesc desc = choose_integrator(scene_desc);
     Plan plan;
@@ -265,9 +281,13 @@ Plan make_plan(const SceneDesc& scene_desc) {
                       double(kMomentGridMaxG));
         std::string lookup = mild ? ", looked up from a grid of its photons' moments" : kd_tree;
         if (desc.volume.radius <= 0.0f)  // render/volume_map_end.h, AdaptiveRadius
-            lookup += " (where more than " + std::to_string(2 * desc.volume.k) +
-                      " fall within its radius, within a smaller one holding about volume.k = " +
-                      std::to_string(desc.volume.k) + ")";
+            lookup += " (where more than " + std::to_string(2 * volume_k(desc)) +
+                      " fall within its radius, within a smaller one holding about " +
+                      (volume_k(desc) == desc.volume.k
+                           ? "volume.k = " + std::to_string(desc.volume.k)
+                           : std::to_string(volume_k(desc)) +
+                                 " (twice volume.k for a peaked phase function)") +
+                      ")";
         std::string at = "at the medium vertex that is their vertex " + std::to_string(d) +
                          " (diffuse bounces count)";
         if (desc.volume.gather_tau > 0.0f) {  // render/volume_map_end.h, FineEnough

@@ -82,6 +82,23 @@ Plan make_plan(const SceneDesc& desc);
 /// (photon/photon_pass.h); otherwise 0 (no such rule).
 uint64_t volume_attempts(const SceneDesc& desc);
 
+/// The volume map's budget: with the attempts rule on (volume_attempts > 0) and photons.volume not
+/// given by the scene, as many photons as attempts, at most kVolumeRuleMaxPhotons — the rule alone
+/// closes the map unless the medium stores more than a photon per attempt (on the Disney cloud
+/// over the ground 0.9 per attempt: the default 100 000 filled at 40% of the rule's attempts and
+/// left the map's noise half the image's); otherwise photons.volume.
+uint64_t volume_budget(const SceneDesc& desc);
+
+/// The most photons volume_budget asks for (168 MB of photons).
+inline constexpr uint64_t kVolumeRuleMaxPhotons = uint64_t(1) << 23;
+
+/// The volume map's k: with camera paths ending in it, volume.k not given by the scene and a
+/// medium whose |g| is above kMomentGridMaxG (its lookups search the kd-tree), twice volume.k —
+/// a peaked phase function weighs few of the gathered photons (for light from every direction
+/// the effective count is (1 - g^2)^2 / (1 + g^2) of them: 0.61 at g 0.4, 0.08 at 0.8, 0.045
+/// at 0.85); otherwise volume.k.
+int volume_k(const SceneDesc& desc);
+
 /// After load_scene: the volume light's reason becomes each emitter's source and power
 /// ("medium 0: blackbody from grid 'temperature' (found in the file), 2.1 W"); when off, a medium
 /// whose file has an emission grid it does not use is named, with how to use it.

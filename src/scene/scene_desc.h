@@ -145,6 +145,10 @@ struct PhotonSettings {
     /// (0 = no such rule; the pipeline sets it by scene/plan.h, volume_attempts, unless auto's
     /// pilot has).
     uint64_t volume_attempts = 0;
+    /// Not a scene key: the scene (or --set) gave photons.volume. Without it, camera paths ending
+    /// in the volume map let the attempts rule alone close that map (scene/plan.h,
+    /// volume_budget).
+    bool volume_given = false;
 };
 
 /// Paths ending in the volume map: photon attempts per camera sample at which the volume map
@@ -202,6 +206,8 @@ struct VolumeGatherSettings {
     /// optical depth along it from a grid with nodes this many voxels apart (render/sun_shadows.h;
     /// built once per render when every medium is a grid); 0 = ratio-tracked shadow rays.
     float sun_grid = 1.0f;
+    /// Not a scene key: the scene (or --set) gave volume.k (scene/plan.h, volume_k).
+    bool k_given = false;
 };
 
 /// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;

@@ -521,9 +521,11 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
     });
     read_object(top, "render", desc.render, [](auto& x, auto& f) { render_fields(x, f); });
     read_object(top, "photons", desc.photons, [](auto& x, auto& f) { photon_fields(x, f); });
+    if (const json* p = top.find("photons")) desc.photons.volume_given = p->contains("volume");
     read_object(top, "global", desc.global, [](auto& x, auto& f) { global_fields(x, f); });
     read_object(top, "caustic", desc.caustic, [](auto& x, auto& f) { caustic_fields(x, f); });
     read_object(top, "volume", desc.volume, [](auto& x, auto& f) { volume_fields(x, f); });
+    if (const json* v = top.find("volume")) desc.volume.k_given = v->contains("k");
     read_object(top, "march", desc.march, [](auto& x, auto& f) { march_fields(x, f); });
     read_object(top, "progressive", desc.progressive,
                 [](auto& x, auto& f) { progressive_fields(x, f); });

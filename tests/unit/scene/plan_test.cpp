@@ -280,7 +280,8 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
-              "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
+              "volume map: built (1 scattering medium, budget 921600 photons (a photon per "
+              "attempt: photons.volume not set); camera paths end "
               "in it at the medium vertex that is their vertex 2 (diffuse bounces count) or the "
               "first after it where its ball spans at most volume.gather_tau = 1.5 scattering mean "
               "free paths (by vertex 8), looked up from "
@@ -341,6 +342,51 @@ TEST(Plan, VolumeAttemptsFollowTheCameraSamples) {
     EXPECT_EQ(volume_attempts(scene(doc)), 0u);
 }
 
+// The volume map's budget under the attempts rule: a photon per attempt unless the scene (or
+// --set) gives photons.volume, at most kVolumeRuleMaxPhotons; the scene's budget otherwise.
+TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
+    json doc = glass_floor_fog();
+    doc["volume"] = json{{"gather_depth", 3}};
+    doc["camera"]["width"] = 400;
+    doc["camera"]["height"] = 300;
+    doc["render"]["spp"] = 64;
+    EXPECT_EQ(volume_budget(scene(doc)), 400u * 300u * 64u / 4u);
+    doc["render"]["spp"] = 2;  // 60 000 attempts: at least the default budget's 100 000
+    EXPECT_EQ(volume_budget(scene(doc)), 100000u);
+    doc["render"]["spp"] = 4096;  // 123 million attempts
+    EXPECT_EQ(volume_budget(scene(doc)), kVolumeRuleMaxPhotons);
+    doc["render"]["spp"] = 64;
+    json given = doc;
+    given["photons"]["volume"] = 100000;  // the default's value, given: kept
+    EXPECT_EQ(volume_budget(scene(given)), 100000u);
+    apply_override(doc, "photons.volume=50000", "scene.json");  // as --set does
+    EXPECT_EQ(volume_budget(scene(doc)), 50000u);
+    doc["photons"].erase("volume");
+    doc["volume"]["gather_depth"] = 0;  // no attempts rule: the default budget
+    EXPECT_EQ(volume_budget(scene(doc)), 100000u);
+}
+
+// The volume map's k with paths ending in it: twice volume.k where a medium's phase function is
+// too peaked for the moment grid, unless the scene gives k; volume.k otherwise.
+TEST(Plan, VolumeKDoublesForAPeakedPhaseFunctionUnlessTheSceneGivesOne) {
+    json doc = glass_floor_fog();
+    doc["volume"] = json{{"gather_depth", 3}};
+    EXPECT_EQ(volume_k(scene(doc)), 50);  // the fog's g is 0
+    doc["media"][0]["g"] = 0.4;
+    EXPECT_EQ(volume_k(scene(doc)), 50);
+    doc["media"][0]["g"] = -0.41;
+    EXPECT_EQ(volume_k(scene(doc)), 100);
+    EXPECT_NE(line(make_plan(scene(doc)), kVolume)
+                  .find("a smaller one holding about 100 (twice volume.k for a peaked phase "
+                        "function)"),
+              std::string::npos);
+    apply_override(doc, "volume.k=30", "scene.json");  // as --set does
+    EXPECT_EQ(volume_k(scene(doc)), 30);
+    doc["volume"].erase("k");
+    doc["volume"]["gather_depth"] = 0;  // camera rays see the map: volume.k
+    EXPECT_EQ(volume_k(scene(doc)), 50);
+}
+
 TEST(Plan, QuadLightAloneNeedsAnEmbreeScene) {
     // An area light is geometry the camera can hit, even without any shape.
     const Plan p = make_plan(scene(json::parse(R"({
@@ -395,8 +441,8 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     forward["media"][0]["g"] = 0.85;
     EXPECT_NE(
         line(pick(forward), kVolume)
-            .find("looked up in its kd-tree (a medium's |g| above 0.4) (where more than 100 fall "
-                  "within its radius, within a smaller one"),
+            .find("looked up in its kd-tree (a medium's |g| above 0.4) (where more than 200 fall "
+                  "within its radius, within a smaller one holding about 100 (twice volume.k"),
         std::string::npos)
         << line(pick(forward), kVolume);
     json beams = sunlit;  // photon beams gather along marched camera rays: no depth
