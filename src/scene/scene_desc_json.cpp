@@ -588,6 +588,9 @@ uint64_t resumable_fingerprint(const SceneDesc& desc) {
     j["progressive"].erase("iterations");
     j["progressive"].erase("time_budget");
     j["render"].erase("threads");
+    // Defaults the scene did not give follow rules (scene/plan.h, volume_budget and volume_k).
+    j["photons"]["volume_given"] = desc.photons.volume_given;
+    j["volume"]["k_given"] = desc.volume.k_given;
     return fnv1a(j.dump());
 }
 

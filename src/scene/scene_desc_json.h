@@ -27,7 +27,9 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
 /// becomes base_dir.
 SceneDesc scene_desc_from_json(const nlohmann::json& doc, const std::string& file);
 
-/// SceneDesc → JSON with every field; scene_desc_from_json(to_json(d)) reads back d exactly.
+/// SceneDesc → JSON with every field; scene_desc_from_json(to_json(d)) reads back d exactly,
+/// but for the fields that are not scene keys (every key is then given: photons.volume_given and
+/// volume.k_given are true).
 nlohmann::json to_json(const SceneDesc& desc);
 
 /// FNV-1a of to_json(desc) without progressive.iterations, progressive.time_budget and

@@ -219,6 +219,23 @@ TEST(SceneDescJson, EmptyDocumentGivesDefaults) {
     EXPECT_EQ(d.base_dir, "");
 }
 
+// photons.volume and volume.k given at their default values are not the defaults left to a rule
+// (scene/plan.h, volume_budget and volume_k): the scene reads which, and a checkpoint of one does
+// not resume the other; the iteration count still does not matter.
+TEST(SceneDescJson, GivenDefaultsAreToldFromDefaultsLeftToARule) {
+    const SceneDesc left = scene_desc_from_json(json::object(), "scene.json");
+    const SceneDesc given = scene_desc_from_json(
+        json{{"photons", {{"volume", left.photons.volume}}}, {"volume", {{"k", left.volume.k}}}},
+        "scene.json");
+    EXPECT_FALSE(left.photons.volume_given || left.volume.k_given);
+    EXPECT_TRUE(given.photons.volume_given && given.volume.k_given);
+    EXPECT_EQ(given.photons.volume, left.photons.volume);
+    EXPECT_NE(resumable_fingerprint(given), resumable_fingerprint(left));
+    SceneDesc more = left;
+    more.progressive.iterations = 7;
+    EXPECT_EQ(resumable_fingerprint(more), resumable_fingerprint(left));
+}
+
 TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     const InputError e = parse_error(json::parse(R"({"render": {"spp_count": 4}})"));
     EXPECT_EQ(e.file, "scene.json");
