@@ -124,8 +124,8 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             d.render.tile_count = pilot.tile_count;
             d.photons.global = scaled(d.photons.global);
             d.photons.caustic = scaled(d.photons.caustic);
-            d.photons.volume = scaled(kind == Integrator::Photon ? volume_budget(desc)
-                                                                 : d.photons.volume);
+            d.photons.volume =
+                scaled(kind == Integrator::Photon ? volume_budget(desc) : d.photons.volume);
             d.photons.max_emitted = scaled(d.photons.max_emitted);
             // The photon integrator's attempts rule, scaled; the guided tracer's volume map
             // closes by it too (else it would fill, in thin media after many times the work).

@@ -324,14 +324,20 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
               "caustic map: skipped (volume.gather_depth 2: camera paths trace surfaces)");
 }
 
-// The volume map's attempts rule: a quarter of the camera samples, at least the budget, and none
-// without paths ending in the map or with the scene's own max_emitted.
-TEST(Plan, VolumeAttemptsFollowTheCameraSamples) {
+/// glass_floor_fog with camera paths ending in the volume map at vertex 3, 400 × 300 at 64 spp.
+json ending_in_the_map() {
     json doc = glass_floor_fog();
     doc["volume"] = json{{"gather_depth", 3}};
     doc["camera"]["width"] = 400;
     doc["camera"]["height"] = 300;
     doc["render"]["spp"] = 64;
+    return doc;
+}
+
+// The volume map's attempts rule: a quarter of the camera samples, at least the budget, and none
+// without paths ending in the map or with the scene's own max_emitted.
+TEST(Plan, VolumeAttemptsFollowTheCameraSamples) {
+    json doc = ending_in_the_map();
     EXPECT_EQ(volume_attempts(scene(doc)), 400u * 300u * 64u / 4u);
     doc["render"]["spp"] = 2;  // 60 000 attempts: the budget instead
     EXPECT_EQ(volume_attempts(scene(doc)), 100000u);
@@ -345,11 +351,7 @@ TEST(Plan, VolumeAttemptsFollowTheCameraSamples) {
 // The volume map's budget under the attempts rule: a photon per attempt unless the scene (or
 // --set) gives photons.volume, at most kVolumeRuleMaxPhotons; the scene's budget otherwise.
 TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
-    json doc = glass_floor_fog();
-    doc["volume"] = json{{"gather_depth", 3}};
-    doc["camera"]["width"] = 400;
-    doc["camera"]["height"] = 300;
-    doc["render"]["spp"] = 64;
+    json doc = ending_in_the_map();
     EXPECT_EQ(volume_budget(scene(doc)), 400u * 300u * 64u / 4u);
     doc["render"]["spp"] = 2;  // 60 000 attempts: at least the default budget's 100 000
     EXPECT_EQ(volume_budget(scene(doc)), 100000u);
