@@ -173,6 +173,12 @@ PlanItem plan_caustic(const SceneDesc& desc, size_t diffuse) {
               budget(desc.photons.caustic));
 }
 
+/// Every medium's |g| lets the volume map's lookups read its grid of moments (media/phase.h).
+bool moments_fit(const SceneDesc& desc) {
+    return std::all_of(desc.media.begin(), desc.media.end(),
+                       [](const MediumDesc& m) { return fits_moment_grid(m.g); });
+}
+
 }  // namespace
 
 SceneDesc choose_integrator(SceneDesc desc) {
@@ -245,9 +251,7 @@ int volume_k(const SceneDesc& desc) {
     if (desc.render.integrator != Integrator::Photon || desc.volume.gather_depth <= 0 ||
         desc.volume.k_given)
         return desc.volume.k;
-    bool peaked = false;
-    for (const MediumDesc& m : desc.media) peaked = peaked || !fits_moment_grid(m.g);
-    return peaked ? 2 * desc.volume.k : desc.volume.k;
+    return moments_fit(desc) ? desc.volume.k : 2 * desc.volume.k;
 }
 
 Plan make_plan(const SceneDesc& scene_desc) {
@@ -273,20 +277,19 @@ Plan make_plan(const SceneDesc& scene_desc) {
     } else if (desc.volume.gather_depth > 0) {
         const int d = desc.volume.gather_depth;
         plan.volume_map = plan_volume(desc);
-        bool mild = true;
-        for (const MediumDesc& m : desc.media) mild = mild && fits_moment_grid(m.g);
         char kd_tree[64];
         std::snprintf(kd_tree, sizeof kd_tree,
                       ", looked up in its kd-tree (a medium's |g| above %g)",
                       double(kMomentGridMaxG));
-        std::string lookup = mild ? ", looked up from a grid of its photons' moments" : kd_tree;
+        std::string lookup =
+            moments_fit(desc) ? ", looked up from a grid of its photons' moments" : kd_tree;
+        const int k = volume_k(desc);
         if (desc.volume.radius <= 0.0f)  // render/volume_map_end.h, AdaptiveRadius
-            lookup += " (where more than " + std::to_string(2 * volume_k(desc)) +
+            lookup += " (where more than " + std::to_string(2 * k) +
                       " fall within its radius, within a smaller one holding about " +
-                      (volume_k(desc) == desc.volume.k
-                           ? "volume.k = " + std::to_string(desc.volume.k)
-                           : std::to_string(volume_k(desc)) +
-                                 " (twice volume.k for a peaked phase function)") +
+                      (k == desc.volume.k
+                           ? "volume.k = " + std::to_string(k)
+                           : std::to_string(k) + " (twice volume.k for a peaked phase function)") +
                       ")";
         std::string at = "at the medium vertex that is their vertex " + std::to_string(d) +
                          " (diffuse bounces count)";
