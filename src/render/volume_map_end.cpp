@@ -283,12 +283,26 @@ bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
     return true;
 }
 
+// FineEnough's decision (header): with the radius AdaptiveRadius would take for the photon count
+// of the grid's balls about the points kDecisionOffset r away along the 8 diagonals, on average.
 float VolumeMapEnd::optical_radius(const Vec3& x) const {
     Color density;
     Moments m;
     if (!interpolate(x, &density, &m)) return 0.0f;
-    const float r = crowded(m.count) ? radius_ * std::cbrt(k_ / m.count) : radius_;
-    return max_component(density) * r;
+    const float sigma = max_component(density);
+    // The smaller radius can only shorten it: decided without the counts.
+    if (!table_ || !(k_ > 0.0f) || sigma * radius_ <= max_tau_) return sigma * radius_;
+    const float h = kDecisionOffset * radius_;
+    float count = 0.0f;
+    for (int c = 0; c < 8; ++c) {
+        const Vec3 o((c & 1) ? h : -h, (c & 2) ? h : -h, (c & 4) ? h : -h);
+        Color around_density;
+        Moments around;
+        if (interpolate(x + o, &around_density, &around)) count += around.count;
+    }
+    count /= 8.0f;
+    const float r = crowded(count) ? radius_ * std::cbrt(k_ / count) : radius_;
+    return sigma * r;
 }
 
 // Σ ΔΦ f(ω·ω_o) = (1/4π) Σ_l (2l+1) a_l Σ ΔΦ P_l(ω·ω_o), P_1 = c, P_2 = (3c² − 1)/2, times 4π.
