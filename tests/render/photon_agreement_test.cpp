@@ -293,7 +293,7 @@ TEST(PhotonAgreement, PathsEndingInTheVolumeMapMatchThePathTracer) {
 // 256 spp a photon per attempt is 147 456 photons, and k 100 for its g 0.85. Measured: image
 // +0.31%, medium +1.6% on seeds 1–4 (+0.38% and +2.0% while FineEnough read the lookup's own
 // photon count: render/volume_map_end.h). One seed's medium varies by ±1.8% (the map's noise),
-// and the mean of 32 is +2.1 ± 0.5% against a 65 536-spp reference: the balls' blur at this
+// and the mean of 16 is +2.1 ± 0.5% against a 65 536-spp reference: the balls' blur at this
 // photon count (+0.4 ± 0.2% at 590 000 photons; over the ground at 160×120 the lit cloud came to
 // +0.25%).
 TEST(PhotonAgreementHeavy, PathsEndingInTheVolumeMapMatchThePathTracerOnCloudAndFog) {
