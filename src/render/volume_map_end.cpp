@@ -261,6 +261,10 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
     crowded_anywhere_ =
         k_ > 0.0f && std::any_of(moments_.begin(), moments_.end(),
                                  [&](const Moments& m) { return m.count > 2.0f * k_; });
+    if (crowded_anywhere_ && max_tau_ > 0.0f) {
+        counts_.resize(moments_.size());
+        for (size_t i = 0; i < moments_.size(); ++i) counts_[i] = moments_[i].count;
+    }
 }
 
 bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
@@ -285,6 +289,17 @@ bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
 
 // FineEnough's decision (header): with the radius AdaptiveRadius would take for the photon count
 // of the grid's balls about the points kDecisionOffset r away along the 8 diagonals, on average.
+float VolumeMapEnd::count_at(const Vec3& x) const {
+    KernelDensity::Corners c;
+    if (counts_.empty() || !density_.corners(x, &c)) return 0.0f;
+    float count = 0.0f;
+    for (int n = 0; n < 8; ++n) {
+        const int32_t s = slot_[c.node[n]];
+        if (s >= 0) count += c.weight[n] * counts_[s];
+    }
+    return count;
+}
+
 float VolumeMapEnd::optical_radius(const Vec3& x) const {
     Color density;
     Moments m;
@@ -294,12 +309,8 @@ float VolumeMapEnd::optical_radius(const Vec3& x) const {
     if (!table_ || !(k_ > 0.0f) || sigma * radius_ <= max_tau_) return sigma * radius_;
     const float h = kDecisionOffset * radius_;
     float count = 0.0f;
-    for (int c = 0; c < 8; ++c) {
-        const Vec3 o((c & 1) ? h : -h, (c & 2) ? h : -h, (c & 4) ? h : -h);
-        Color around_density;
-        Moments around;
-        if (interpolate(x + o, &around_density, &around)) count += around.count;
-    }
+    for (int c = 0; c < 8; ++c)
+        count += count_at(x + Vec3((c & 1) ? h : -h, (c & 2) ? h : -h, (c & 4) ? h : -h));
     count /= 8.0f;
     const float r = crowded(count) ? radius_ * std::cbrt(k_ / count) : radius_;
     return sigma * r;

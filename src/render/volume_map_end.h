@@ -216,6 +216,8 @@ private:
     };
     /// σ̄_s at x and, where the grid holds moments, the interpolated moments (else m stays 0);
     /// the corners used. False beyond the grid.
+    /// The photon count interpolated at x (0 beyond the grid): as interpolate's, from counts_.
+    float count_at(const Vec3& x) const;
     bool interpolate(const Vec3& x, Color* density, Moments* m,
                      KernelDensity::Corners* c = nullptr) const;
     /// Σ ΔΦ f(ω·ω_o) from moments (the l ≤ 2 series), per channel, towards o.
@@ -231,6 +233,7 @@ private:
     bool phase_fits_;               ///< every medium fits_moment_grid
     std::vector<int32_t> slot_;     ///< per grid point: its moments' index, or −1 (no medium)
     std::vector<Moments> moments_;  ///< grid points with medium about them
+    std::vector<float> counts_;     ///< their photon counts, packed for FineEnough's decision
     const SigmaTable* table_ = nullptr;
     float k_;
     float max_tau_;
