@@ -318,20 +318,27 @@ TEST(VolumeMapEnd, TheEstimateIsTheLightAtTheBallsCentreWhereTheDensityVaries) {
     EXPECT_NEAR(got / expected, 1.0, 0.02) << "uncorrected " << uncorrected / expected;
 }
 
-// FineEnough: inside a homogeneous medium the ball spans σ_s r scattering mean free paths (the
-// most scattering channel's); a path ends at its D-th medium vertex where that is at most
-// max_tau, else at the first later vertex where it is, and at vertex 4D in any case.
-TEST(VolumeMapEnd, PathsEndWhereTheBallSpansFewMeanFreePaths) {
-    Rng rng(3, 1);
+// `count` photons of power 1 (photon_power 0.001) uniform in the cube [−half, half]³, pointing
+// every way.
+PhotonMap uniform_photons(int count, float half, Rng& rng) {
     std::vector<Photon> photons;
-    for (int i = 0; i < 20000; ++i) {
-        const Vec3 p = 2.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - 1.0f;
+    for (int i = 0; i < count; ++i) {
+        const Vec3 p = half * (2.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - 1.0f);
         photons.emplace_back(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())),
                              Color(1.0f));
     }
     PhotonMap map;
     map.tree = KdTree<Photon>(std::move(photons));
     map.photon_power = 0.001f;
+    return map;
+}
+
+// FineEnough: inside a homogeneous medium the ball spans σ_s r scattering mean free paths (the
+// most scattering channel's); a path ends at its D-th medium vertex where that is at most
+// max_tau, else at the first later vertex where it is, and at vertex 4D in any case.
+TEST(VolumeMapEnd, PathsEndWhereTheBallSpansFewMeanFreePaths) {
+    Rng rng(3, 1);
+    const PhotonMap map = uniform_photons(20000, 1.0f, rng);
     const std::vector<Medium> media{Medium::homogeneous(
         {Color(2.0f, 1.0f, 0.5f), Color(0.1f), 0.0f}, Box3{Vec3(-1.0f), Vec3(1.0f)})};
     const float radius = 0.25f;  // σ_s r = 0.5 for the red channel
@@ -360,18 +367,10 @@ TEST(VolumeMapEnd, PathsEndWhereTheBallSpansFewMeanFreePaths) {
 TEST(VolumeMapEnd, WhetherAPathEndsDoesNotFollowTheNoiseOfTheLookupsPhotons) {
     const int count = 200000;
     Rng rng(29, 3);
-    std::vector<Photon> photons;
-    for (int i = 0; i < count; ++i) {
-        const Vec3 p = 4.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - 2.0f;
-        photons.emplace_back(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())),
-                             Color(1.0f));
-    }
-    PhotonMap map;
-    map.tree = KdTree<Photon>(std::move(photons));
-    map.photon_power = 0.001f;
+    const PhotonMap map = uniform_photons(count, 2.0f, rng);
     const float sigma_s = 8.0f, radius = 0.3f, k = 50.0f;
-    const std::vector<Medium> media{Medium::homogeneous(
-        {Color(sigma_s), Color(0.1f), 0.0f}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
+    const std::vector<Medium> media{
+        Medium::homogeneous({Color(sigma_s), Color(0.1f), 0.0f}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
     const double rho = count / 64.0;
     const double mean_count = rho * (4.0 / 3.0) * kPi * std::pow(radius, 3.0);  // 353
     const float max_tau = sigma_s * radius * float(std::cbrt(k / mean_count));
