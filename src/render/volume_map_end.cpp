@@ -287,8 +287,6 @@ bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
     return true;
 }
 
-// FineEnough's decision (header): with the radius AdaptiveRadius would take for the photon count
-// of the grid's balls about the points kDecisionOffset r away along the 8 diagonals, on average.
 float VolumeMapEnd::count_at(const Vec3& x) const {
     KernelDensity::Corners c;
     if (counts_.empty() || !density_.corners(x, &c)) return 0.0f;
@@ -300,6 +298,8 @@ float VolumeMapEnd::count_at(const Vec3& x) const {
     return count;
 }
 
+// FineEnough's decision (header): with the radius AdaptiveRadius would take for the photon count
+// of the grid's balls about the 8 points kDecisionOffset r along each axis away, on average.
 float VolumeMapEnd::optical_radius(const Vec3& x) const {
     Color density;
     Moments m;

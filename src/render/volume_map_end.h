@@ -156,9 +156,9 @@ public:
     // on average, which hold few of the smaller ball's photons (0.6 r: the ended lookups of
     // VolumeMapEnd.WhetherAPathEndsDoesNotFollowTheNoiseOfTheLookupsPhotons still +2–4% high).
     // Then +1.4 ± 0.5% at k 50, +2.1 ± 0.5% at k 100; the rest is the balls' blur at this
-    // photon count (k 100: +4.9 ± 0.8% at 37 000 photons, +0.4 ± 0.2% at 590 000). On smoke1
+    // photon count (k 100: +4.9 ± 0.8% at 37 000 photons, +0.3 ± 0.2% at 590 000). On smoke1
     // over the ground (64 spp, 8 seeds) the high-by-chance lookups had lightened its dense foot's
-    // blur: its worst 8 × 8 blocks −1.7% → −2.1%, relMSE 0.000549 → 0.000567.
+    // blur: its worst 8 × 8 blocks −1.7% → −2.2%, relMSE 0.000549 → 0.000567.
     static constexpr float kDecisionOffset = 1.0f;
 
     // AdaptiveRadius. The map's one radius r, a median of k-th-neighbour distances, is set by a
@@ -216,10 +216,11 @@ private:
     };
     /// σ̄_s at x and, where the grid holds moments, the interpolated moments (else m stays 0);
     /// the corners used. False beyond the grid.
-    /// The photon count interpolated at x (0 beyond the grid): as interpolate's, from counts_.
-    float count_at(const Vec3& x) const;
     bool interpolate(const Vec3& x, Color* density, Moments* m,
                      KernelDensity::Corners* c = nullptr) const;
+    /// The photon count interpolated at x as interpolate does, from counts_ (0 beyond the grid
+    /// or without counts_).
+    float count_at(const Vec3& x) const;
     /// Σ ΔΦ f(ω·ω_o) from moments (the l ≤ 2 series), per channel, towards o.
     static Color phase_sum(const Moments& m, const Vec3& o, const PhaseMix& phase);
     /// LeanCorrection: what to subtract from an estimate at x over a ball of radius `rho`,

@@ -292,7 +292,7 @@ TEST(PhotonAgreement, PathsEndingInTheVolumeMapMatchThePathTracer) {
 // The cloud also as auto renders it (D = 3) with the map's budget and k left to their rules: at
 // 1024 spp a photon per attempt is 589 824 photons, and k 100 for its g 0.85. Measured: image
 // +0.07%, medium +0.32% on seeds 1–4. With as many photons at 256 spp one seed's medium varies
-// by ±0.9% (the map's noise), and the mean of 16 was +0.44 ± 0.23% against a 65 536-spp
+// by ±0.9% (the map's noise), and the mean of 16 was +0.25 ± 0.23% against a 65 536-spp
 // reference: hence 1.5%. At 256 spp by the rules (147 456 photons) the balls' blur leaves the
 // medium +2.1 ± 0.5% (16 seeds), and +2.5% while FineEnough read the lookup's own photon count
 // (render/volume_map_end.h).
