@@ -301,10 +301,7 @@ float VolumeMapEnd::count_at(const Vec3& x) const {
 // FineEnough's decision (header): with the radius AdaptiveRadius would take for the photon count
 // of the grid's balls about the 8 points kDecisionOffset r along each axis away, on average.
 float VolumeMapEnd::optical_radius(const Vec3& x) const {
-    Color density;
-    Moments m;
-    if (!interpolate(x, &density, &m)) return 0.0f;
-    const float sigma = max_component(density);
+    const float sigma = max_component(density_.at(x));  // 0 beyond the grid
     // The smaller radius can only shorten it: decided without the counts.
     if (!table_ || !(k_ > 0.0f) || sigma * radius_ <= max_tau_) return sigma * radius_;
     const float h = kDecisionOffset * radius_;
