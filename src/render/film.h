@@ -48,6 +48,7 @@ struct FilmSample {
 struct PixelSample {
     int s = 0, spp = 1;
     uint64_t key = 0;
+    int x = 0, y = 0;  ///< the pixel
 };
 
 struct RenderStats {
@@ -168,7 +169,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             Rng rng(seed, pixel, static_cast<uint64_t>(s));
             const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
             const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state,
-                                       PixelSample{s, spp, jitter_key});
+                                       PixelSample{s, spp, jitter_key, x, y});
             if (!is_finite(layered ? c.layer_sum() : c.beauty)) {
                 ++dropped;
                 continue;

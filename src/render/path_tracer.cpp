@@ -5,6 +5,8 @@
 #include "render/camera.h"
 #include "scene/shadow.h"
 
+#include <algorithm>
+#include <array>
 #include <optional>
 
 namespace fogmap {
@@ -65,8 +67,8 @@ struct PathTracer::Lobe {
 };
 
 PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide,
-                       const VolumeMapEnd* end, const SunShadows* sun)
-    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end), sun_(sun) {
+                       const VolumeMapEnd* end, const SunShadows* sun, const AdjointSplit* adjoint)
+    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end), sun_(sun), adjoint_(adjoint) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
@@ -208,6 +210,12 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
         ts.gathered += ts.neighbors.size();
         return false;
     }
+    if (adjoint_ && !adjoint_->pixels) {  // render_pixel_estimate: direct light and L̃; the end
+        *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
+        ++ts.lookups;
+        *L += p.beta * adjoint_->grid->at(x, p.ray.d, phase);
+        return false;
+    }
     const bool guided = guide_ && p.depth <= guide_->settings().vertices;
     if (guided) {
         ++ts.lookups;
@@ -219,25 +227,57 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     if (first) sky_u = stratified(*first, kSkyDim, Vec2(rng.uniform(), rng.uniform()));
     Lobe lobe{&phase, p.ray.d, Color(0.0f), lobes};
     if (first) lobe.sky_u = &sky_u;
-    *L += p.beta * direct_light(x, lobe, rng, ts);
-    Vec3 wi;
-    if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
-        wi = guide_->sample(ts.lobes, phase, p.ray.d, rng, &p.prev_pdf);
-        p.env_pdf = phase.eval(glm::dot(p.ray.d, wi));
-        p.beta *= p.env_pdf / p.prev_pdf;
-    } else if (first) {
-        const float pick_u = rng.uniform();
-        const Vec2 u = stratified(*first, kDirectionDim, Vec2(rng.uniform(), rng.uniform()));
-        wi = phase.sample(p.ray.d, pick_u, u, &p.prev_pdf);
-        p.env_pdf = p.prev_pdf;
-    } else {
-        wi = phase.sample(p.ray.d, rng, &p.prev_pdf);  // weight phase/pdf = 1
-        p.env_pdf = p.prev_pdf;
+    const Color direct = direct_light(x, lobe, rng, ts);
+    *L += p.beta * direct;
+    const bool splits = adjoint_ && ts.pixel_estimate > 0.0f;  // split() plays the roulette
+    const int copies = splits ? split(p, x, phase, direct, rng, ts) : 1;
+    if (copies == 0) return false;
+    const auto next_direction = [&](Path& q, bool stratify) {
+        Vec3 wi;
+        if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
+            wi = guide_->sample(ts.lobes, phase, q.ray.d, rng, &q.prev_pdf);
+            q.env_pdf = phase.eval(glm::dot(q.ray.d, wi));
+            q.beta *= q.env_pdf / q.prev_pdf;
+        } else if (stratify) {
+            const float pick_u = rng.uniform();
+            const Vec2 u = stratified(*first, kDirectionDim, Vec2(rng.uniform(), rng.uniform()));
+            wi = phase.sample(q.ray.d, pick_u, u, &q.prev_pdf);
+            q.env_pdf = q.prev_pdf;
+        } else {
+            wi = phase.sample(q.ray.d, rng, &q.prev_pdf);  // weight phase/pdf = 1
+            q.env_pdf = q.prev_pdf;
+        }
+        q.specular = false;
+        q.prev_p = x;
+        q.ray = Ray{x, wi};
+    };
+    if (copies > 1) {  // every copy's direction before any is traced (tracing overwrites ts.lobes)
+        std::array<Path, AdjointSplit::kMaxSplit - 1> more;
+        for (int c = 0; c + 1 < copies; ++c) {
+            more[c] = p;
+            next_direction(more[c], false);
+        }
+        next_direction(p, first != nullptr);
+        for (int c = 0; c + 1 < copies; ++c) *L += trace(more[c], rng, ts);
+        return true;
     }
-    p.specular = false;
-    p.prev_p = x;
-    p.ray = Ray{x, wi};
-    return survive(p.depth, &p.beta, rng);
+    next_direction(p, first != nullptr);
+    return splits || survive(p.depth, &p.beta, rng);
+}
+
+// AdjointSplit (path_tracer.h): n = ⌈β (L̃ + direct) / Ĩ⌉ copies above the window, one path
+// within it, the plain roulette below it.
+int PathTracer::split(Path& p, const Vec3& x, const PhaseMix& phase, const Color& direct, Rng& rng,
+                      ThreadState& ts) const {
+    ++ts.lookups;
+    const float ratio =
+        average(p.beta * (adjoint_->grid->at(x, p.ray.d, phase) + direct)) / ts.pixel_estimate;
+    if (!(ratio >= AdjointSplit::kBelow)) return survive(p.depth, &p.beta, rng) ? 1 : 0;
+    if (ratio <= AdjointSplit::kAbove) return 1;
+    const int n = std::min({int(std::ceil(ratio)), AdjointSplit::kMaxSplit, 1 + ts.splits_left});
+    ts.splits_left -= n - 1;
+    p.beta /= float(n);
+    return n;
 }
 
 Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
@@ -245,6 +285,10 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
     Path p;
     p.ray = camera_ray;
     p.strata = strata;
+    if (adjoint_ && adjoint_->pixels) {
+        ts.pixel_estimate = strata ? average(adjoint_->pixels->at(strata->x, strata->y)) : 0.0f;
+        ts.splits_left = AdjointSplit::kSplitBudget;
+    }
     p.prev_p = camera_ray.o;
     if (ts.media.empty() || !end_) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
@@ -369,8 +413,9 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
 }
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide, const VolumeMapEnd* end, const SunShadows* sun) {
-    const PathTracer tracer(scene, settings.max_depth, guide, end, sun);
+                 const VolumeGuide* guide, const VolumeMapEnd* end, const SunShadows* sun,
+                 const AdjointSplit* adjoint) {
+    const PathTracer tracer(scene, settings.max_depth, guide, end, sun, adjoint);
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed,
         TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,
@@ -380,6 +425,34 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
             return sample;
         });
+}
+
+Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,
+                            const AdjointGrid& grid, RenderStats* stats) {
+    RenderSettings pre = settings;
+    pre.spp = kPixelEstimateSpp;
+    pre.seed = mix64(settings.seed ^ 0x61646a6f696e74ull);  // not the render's samples
+    const AdjointSplit ends{&grid, nullptr};
+    const Image film =
+        render_path(scene, pre, /*quiet=*/true, stats, nullptr, nullptr, nullptr, &ends).beauty;
+    // Within the pixel's tile: a rank rendering a share of the tiles gets the same Ĩ.
+    Image out(film.width, film.height);
+    for (int y = 0; y < film.height; ++y)
+        for (int x = 0; x < film.width; ++x) {
+            Color sum(0.0f);
+            int n = 0;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                    const int u = x + dx, v = y + dy;
+                    if (u < 0 || v < 0 || u >= film.width || v >= film.height ||
+                        u / kTile != x / kTile || v / kTile != y / kTile)
+                        continue;
+                    sum += film.at(u, v);
+                    ++n;
+                }
+            out.at(x, y) = sum / float(n);
+        }
+    return out;
 }
 
 }  // namespace fogmap

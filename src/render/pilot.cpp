@@ -83,6 +83,7 @@ Work work_units(const Report& r) {
                kGatheredWork * double(r.gathered);
     w.photons = double(r.photon_steps) + kInteractionWork * double(r.photon_interactions);
     w.fixed = kNodeWork * double(r.precompute_nodes);
+    w.per_pixel = double(r.estimate_events);
     return w;
 }
 
@@ -134,14 +135,16 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             const Work w = work_units(run.report);
             work.render += 0.5 * w.render;
             work.photons += 0.5 * w.photons;
+            work.per_pixel += 0.5 * w.per_pixel;
             work.fixed = std::max(work.fixed, w.fixed);  // shared tables: built once
             pixels = double(run.report.samples) / pilot.spp;
             images.push_back(share.gather(run.film.beauty));
         }
         // The full render: every pixel (the pilot has `pixels`) at 1/f the samples, 1/f_photons
         // the photons, and the tables once.
-        c.work = work.fixed + work.photons / f_photons +
-                 work.render * (double(width) * height / std::max(pixels, 1.0)) / f;
+        const double all_pixels = double(width) * height / std::max(pixels, 1.0);
+        c.work = work.fixed + work.photons / f_photons + work.render * all_pixels / f +
+                 work.per_pixel * all_pixels;
         pilot.candidates.push_back(c);
     }
     // relMSE as bench measures it, Σ d² / (y² + 0.01) over pixels and channels; d² estimated

@@ -29,6 +29,7 @@ struct SharedTables;
 /// with the samples).
 struct Work {
     double render = 0.0, photons = 0.0, fixed = 0.0;
+    double per_pixel = 0.0;  ///< grows with the pixels, not the samples (the pixel estimate)
 };
 Work work_units(const Report& report);
 

@@ -88,9 +88,10 @@ struct RunOptions {
 PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene, const RunOptions& o);
 
 /// The guide's settings: its radius is the volume gather's.
-GuideSettings guide_settings(const GatherParams& gather) {
+GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     GuideSettings g;
     g.radius = gather.volume.radius;
+    g.vertices = vertices;
     return g;
 }
 
@@ -301,10 +302,28 @@ PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene_ref, const R
                 const GatherParams gather = gather_at_iteration(*first_gather, i, p.alpha);
                 it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
                 if (guided) {
+                    // Splitting by the map's light to come (AdjointSplit), directions guided at
+                    // the first render.guide_vertices medium vertices.
                     std::optional<VolumeGuide> guide;
-                    if (maps.volume) guide.emplace(*maps.volume, guide_settings(gather));
-                    film = render_path(*scene, settings, quiet_pass, &stats,
-                                       guide ? &*guide : nullptr);
+                    std::optional<AdjointGrid> grid;
+                    Image pixels;
+                    AdjointSplit split;
+                    if (maps.volume) {
+                        if (desc.render.guide_vertices > 0)
+                            guide.emplace(*maps.volume,
+                                          guide_settings(gather, desc.render.guide_vertices));
+                        const Timer precompute;
+                        grid.emplace(*maps.volume, scene->media, gather.volume.radius);
+                        RenderStats estimate;
+                        pixels = render_pixel_estimate(*scene, settings, *grid, &estimate);
+                        report.estimate_events += estimate.steps + estimate.rays + estimate.lookups;
+                        report.precompute_nodes += grid->evaluations();
+                        split = AdjointSplit{&*grid, &pixels};
+                        add_phase(&report, "precompute", precompute.seconds());
+                    }
+                    film =
+                        render_path(*scene, settings, quiet_pass, &stats, guide ? &*guide : nullptr,
+                                    nullptr, nullptr, grid ? &split : nullptr);
                 } else if (map_end) {
                     const Timer precompute;
                     std::optional<VolumeMapEnd> end;

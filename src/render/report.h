@@ -43,10 +43,12 @@ struct Report {
     /// The work done, counted (deterministic; auto's pilot weighs it: render/pilot.h): the
     /// render's medium density evaluations and tentative collisions, its photon-map and
     /// sun-grid lookups and the photons they gathered from kd-trees, the photon pass's medium steps
-    /// and photon path interactions, and the nodes of the tables built once per render (camera
-    /// paths ending in the volume map).
+    /// and photon path interactions, the nodes of the tables built once per render (camera
+    /// paths ending in the volume map; the guided tracer's AdjointGrid), and the medium steps,
+    /// rays and lookups of the guided tracer's pixel estimate (a few samples a pixel, whatever
+    /// the render's spp).
     uint64_t steps = 0, lookups = 0, photon_steps = 0, photon_interactions = 0;
-    uint64_t gathered = 0, precompute_nodes = 0;
+    uint64_t gathered = 0, precompute_nodes = 0, estimate_events = 0;
     double render_s = 0.0;
     std::vector<std::string> outputs;                  ///< files written
     std::string plan_text;                             ///< make_plan's five lines

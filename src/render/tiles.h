@@ -56,13 +56,14 @@ struct TileShare {
     int index = 0, count = 1;
 };
 
+inline constexpr int kTile = 16;  ///< tiles are kTile × kTile pixels
+
 /// Calls shade_pixel(x, y, state) for every pixel of a width x height image in `share`'s tiles,
 /// with state = make_state() made once per tile, and end_tile(state) on the worker after each.
 /// Returns the number of pixels shaded.
 template <class MakeState, class ShadePixel, class EndTile>
 uint64_t render_tiles(int width, int height, TileShare share, bool quiet, MakeState&& make_state,
                       ShadePixel&& shade_pixel, EndTile&& end_tile) {
-    constexpr int kTile = 16;
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
     const int mine = (tiles_x * tiles_y - share.index + share.count - 1) / share.count;
     Progress progress("render", static_cast<uint64_t>(std::max(mine, 0)), quiet);

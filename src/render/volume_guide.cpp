@@ -84,4 +84,75 @@ Vec3 VolumeGuide::sample(const GuideLobes& lobes, const PhaseMix& phase, const V
     return w;
 }
 
+AdjointGrid::AdjointGrid(const PhotonMap& map, const std::vector<Medium>& media, float cell) {
+    Box3 bounds;
+    for (const Medium& m : media)
+        if (!m.world_bounds().empty()) bounds.extend(m.world_bounds());
+    if (bounds.empty() || !(cell > 0.0f) || map.tree.empty()) return;
+    const Vec3 extent = bounds.hi - bounds.lo;
+    cell_ = std::max(cell, std::cbrt(extent.x * extent.y * extent.z / float(kMaxCells)));
+    for (;;) {
+        for (int a = 0; a < 3; ++a) dims_[a] = std::max(1, int(std::ceil(extent[a] / cell_)));
+        if (size_t(dims_[0]) * dims_[1] * dims_[2] <= kMaxCells) break;
+        cell_ *= 1.05f;
+    }
+    origin_ = bounds.lo;
+    const size_t cells = size_t(dims_[0]) * dims_[1] * dims_[2];
+    std::vector<Color> power(cells, Color(0.0f));
+    std::vector<int> count(cells, 0);
+    mean_dir_.assign(cells, Vec3(0.0f));
+    for (const Photon& p : map.tree.records()) {
+        size_t i;
+        if (!cell_of(p.position(), &i)) continue;
+        power[i] += p.power();
+        mean_dir_[i] += average(p.power()) * p.direction();
+        ++count[i];
+    }
+    values_.assign(cells, Color(0.0f));
+    std::vector<Medium::Sampler> samplers;
+    for (const Medium& m : media) samplers.emplace_back(m);
+    const float volume = cell_ * cell_ * cell_;
+    for (size_t i = 0; i < cells; ++i) {
+        if (count[i] < kMinPhotons) continue;
+        const int x = int(i % dims_[0]), y = int(i / dims_[0] % dims_[1]),
+                  z = int(i / (size_t(dims_[0]) * dims_[1]));
+        Color sigma_s(0.0f);
+        for (int o = 0; o < kPoints * kPoints * kPoints; ++o) {
+            const Vec3 at =
+                origin_ +
+                cell_ *
+                    (Vec3(x, y, z) +
+                     (Vec3(o % kPoints, o / kPoints % kPoints, o / (kPoints * kPoints)) + 0.5f) /
+                         float(kPoints));
+            for (Medium::Sampler& s : samplers)
+                sigma_s += s.density(at) * s.medium().params().sigma_s;
+        }
+        sigma_s *= 1.0f / float(kPoints * kPoints * kPoints);
+        evaluations_ += size_t(kPoints * kPoints * kPoints) * samplers.size();
+        if (average(power[i]) > 0.0f) mean_dir_[i] /= average(power[i]);
+        for (int c = 0; c < 3; ++c)
+            if (sigma_s[c] > 0.0f)
+                values_[i][c] = power[i][c] * map.photon_power * kInvFourPi / (volume * sigma_s[c]);
+    }
+}
+
+bool AdjointGrid::cell_of(const Vec3& x, size_t* index) const {
+    const Vec3 u = (x - origin_) / cell_;
+    int c[3];
+    for (int a = 0; a < 3; ++a) {
+        if (!(u[a] >= 0.0f)) return false;
+        c[a] = int(u[a]);
+        if (c[a] >= dims_[a]) return false;
+    }
+    *index = (size_t(c[2]) * dims_[1] + c[1]) * dims_[0] + c[0];
+    return true;
+}
+
+Color AdjointGrid::at(const Vec3& x, const Vec3& dir, const PhaseMix& phase) const {
+    size_t i;
+    if (values_.empty() || !cell_of(x, &i)) return Color(0.0f);
+    return values_[i] *
+           std::max(0.0f, 1.0f + 3.0f * phase.legendre(1) * glm::dot(-dir, mean_dir_[i]));
+}
+
 }  // namespace fogmap

@@ -272,7 +272,8 @@ Plan make_plan(const SceneDesc& scene_desc) {
         plan.volume_map = plan.global_map = plan.caustic_map = off("no light emits power");
     } else if (desc.render.integrator == Integrator::Guided) {
         plan.volume_map = plan_volume(desc);
-        if (plan.volume_map) plan.volume_map.reason += "; it guides scattering in media";
+        if (plan.volume_map)
+            plan.volume_map.reason += "; camera paths split in media by its light to come";
         plan.global_map = plan.caustic_map = off("integrator is guided: only media are guided");
     } else if (desc.volume.gather_depth > 0) {
         const int d = desc.volume.gather_depth;

@@ -99,9 +99,10 @@ struct MediumDesc {
     std::optional<EmissionDesc> emission;  ///< absent: the medium does not emit
 };
 
-/// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with scattering
-/// directions in media guided by the volume photon map (unbiased); auto: the Plan picks one of them
-/// for the scene (scene/plan.h, choose_integrator).
+/// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with camera
+/// paths split in media where the volume photon map has light to come (and, by guide_vertices,
+/// directions guided by it; unbiased); auto: the Plan picks one of them for the scene
+/// (scene/plan.h, choose_integrator).
 enum class Integrator { Path, Photon, Guided, Auto };
 
 struct RenderSettings {
@@ -117,6 +118,11 @@ struct RenderSettings {
     /// side (direct light, single scattering); the chosen ones weigh spp / map_spp rounded down
     /// (unbiased: map_weight in render/photon_integrator.h).
     int map_spp = 4;
+    /// Guided integrator: medium vertices along a path (the first ones) whose scattering
+    /// direction is sampled from the volume photons' incident directions mixed with the phase
+    /// function (render/volume_guide.h); 0 = none, the map then drives splitting alone (measured:
+    /// README, "Guided path tracing").
+    int guide_vertices = 0;
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
     /// cuts is reported (a warning above 0.1% of the samples).

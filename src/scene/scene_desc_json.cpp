@@ -31,7 +31,7 @@ constexpr std::array<EmissionSource, 4> kEmissionSources{
     EmissionSource::Auto, EmissionSource::Blackbody, EmissionSource::Scalar,
     EmissionSource::Constant};
 constexpr std::array<Integrator, 4> kIntegrators{Integrator::Auto, Integrator::Path,
-                                                Integrator::Photon, Integrator::Guided};
+                                                 Integrator::Photon, Integrator::Guided};
 constexpr std::array<VolumeEstimator, 3> kVolumeEstimators{
     VolumeEstimator::Sphere, VolumeEstimator::Beam, VolumeEstimator::PhotonBeams};
 constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
@@ -154,6 +154,7 @@ void render_fields(R& r, V& v) {
     v.choice("integrator", r.integrator, kIntegrators, "integrator");
     v.value("spp", r.spp);
     v.value("map_spp", r.map_spp);
+    v.value("guide_vertices", r.guide_vertices);
     v.value("max_depth", r.max_depth);
     v.value("seed", r.seed);
     v.value("threads", r.threads);

@@ -471,6 +471,7 @@ void check_render(const SceneDesc& desc) {
         k.fail("map_spp",
                "map_spp must be >= 0 (0 = every sample); found " + std::to_string(r.map_spp));
     k.int_range("max_depth", r.max_depth, 1, kMaxDepthLimit);
+    k.int_range("guide_vertices", r.guide_vertices, 0, kMaxDepthLimit);
     if (r.threads < 0) {
         k.fail("threads",
                "threads must be >= 0 (0 = all cores); found " + std::to_string(r.threads));

@@ -451,9 +451,10 @@ TEST(PhotonDeterminism, OneAndTwoThreadsGiveIdenticalAovs) {
 }
 
 // The guided path tracer is unbiased: on smoke.json and the albedo-0.99 cloud (g = 0.85) its image
-// equals the plain path tracer's in expectation. Both are rendered with independent seeds; their
-// per-pixel differences are zero-mean and independent across pixels, so the mean difference must
-// lie within 4 of its standard errors.
+// equals the plain path tracer's in expectation, with paths split by the map's light to come
+// alone (AdjointSplit) and with the first medium vertex's direction guided too. Each is rendered
+// with an independent seed; the per-pixel differences are zero-mean and independent across
+// pixels, so the mean difference must lie within 4 of its standard errors.
 TEST(GuidedAgreement, GuidedPathTracerMatchesThePathTracer) {
     for (const char* scene : {"smoke.json", "cloud.json"}) {
         const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/" + scene;
@@ -461,14 +462,38 @@ TEST(GuidedAgreement, GuidedPathTracerMatchesThePathTracer) {
             "camera.width=64",      "camera.height=36",           "render.spp=64",
             "photons.volume=50000", "render.integrator=\"path\"", "render.seed=3"};
         const Image plain = run_pipeline(load_scene_desc(path, o), true).film.beauty;
-        o[4] = "render.integrator=\"guided\"";
-        o[5] = "render.seed=4";
-        const Image guided = run_pipeline(load_scene_desc(path, o), true).film.beauty;
-        const auto [mean, se] = mean_difference(guided, plain);
-        EXPECT_NEAR(mean, 0.0, 4.0 * se)
-            << scene << ": guided " << guided.mean() << ", path " << plain.mean();
         EXPECT_GT(plain.mean(), 0.0);
+        o[4] = "render.integrator=\"guided\"";
+        for (const int vertices : {0, 1}) {
+            o[5] = "render.seed=" + std::to_string(4 + vertices);
+            o.push_back("render.guide_vertices=" + std::to_string(vertices));
+            const Image guided = run_pipeline(load_scene_desc(path, o), true).film.beauty;
+            o.pop_back();
+            const auto [mean, se] = mean_difference(guided, plain);
+            EXPECT_NEAR(mean, 0.0, 4.0 * se)
+                << scene << ", " << vertices << " guided vertices: " << guided.mean() << ", path "
+                << plain.mean();
+        }
     }
+}
+
+// The guided tracer's pixel estimate, splitting and guide give bit-identical images for 1 and 2
+// threads: a sample's split copies draw from its own stream, in order.
+TEST(GuidedDeterminism, OneAndTwoThreadsGiveIdenticalImages) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
+    std::vector<std::string> o{"camera.width=32",
+                               "camera.height=18",
+                               "render.spp=8",
+                               "photons.volume=20000",
+                               "render.integrator=\"guided\"",
+                               "render.guide_vertices=1",
+                               "render.threads=1"};
+    const Image one = run_pipeline(load_scene_desc(path, o), true).film.beauty;
+    o.back() = "render.threads=2";
+    const Image two = run_pipeline(load_scene_desc(path, o), true).film.beauty;
+    EXPECT_EQ(0,
+              std::memcmp(one.pixels.data(), two.pixels.data(), one.pixels.size() * sizeof(Color)));
+    EXPECT_GT(one.mean(), 0.0);
 }
 
 // render.map_spp: a pixel's photon-map lookups made by 1 or 4 of its 16 samples, weighted 16 or

@@ -229,7 +229,7 @@ TEST(Plan, GuidedIntegratorBuildsOnlyTheVolumeMap) {
     doc["render"] = {{"integrator", "guided"}};
     const Plan plan = make_plan(scene(doc));
     EXPECT_TRUE(plan.volume_map.on);
-    EXPECT_NE(plan.volume_map.reason.find("guides scattering"), std::string::npos);
+    EXPECT_NE(plan.volume_map.reason.find("camera paths split in media"), std::string::npos);
     EXPECT_FALSE(plan.global_map.on);
     EXPECT_FALSE(plan.caustic_map.on);
     EXPECT_EQ(line(plan, kGlobal),

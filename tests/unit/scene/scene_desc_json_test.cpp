@@ -69,8 +69,8 @@ json full_scene() {
         {"type": "homogeneous", "bounds": {"min": [-1, 0, -1], "max": [1, 2, 1]},
          "density_scale": 0.5, "sigma_s": 0.1, "sigma_a": [0.01, 0.02, 0.03], "g": -0.3}
       ],
-      "render": {"integrator": "path", "spp": 64, "map_spp": 2, "max_depth": 12,
-                 "seed": 18446744073709551615, "threads": 3},
+      "render": {"integrator": "path", "spp": 64, "map_spp": 2, "guide_vertices": 2,
+                 "max_depth": 12, "seed": 18446744073709551615, "threads": 3},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
                   "max_bounces": 7},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
@@ -187,6 +187,7 @@ TEST(SceneDescJson, FullSceneRoundTripsThroughToJson) {
     }
     EXPECT_EQ(b.render.seed, a.render.seed);
     EXPECT_EQ(b.render.integrator, a.render.integrator);
+    EXPECT_EQ(b.render.guide_vertices, 2);
     EXPECT_EQ(b.photons.volume, a.photons.volume);
     EXPECT_EQ(b.photons.max_emitted, a.photons.max_emitted);
     EXPECT_EQ(b.photons.max_bounces, a.photons.max_bounces);
@@ -240,9 +241,10 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     const InputError e = parse_error(json::parse(R"({"render": {"spp_count": 4}})"));
     EXPECT_EQ(e.file, "scene.json");
     EXPECT_EQ(e.field, "/render/spp_count");
-    EXPECT_EQ(e.reason,
-              "unknown key 'spp_count'; known keys: integrator, map_spp, max_depth, seed, spp, "
-              "threads");
+    EXPECT_EQ(
+        e.reason,
+        "unknown key 'spp_count'; known keys: guide_vertices, integrator, map_spp, max_depth, "
+        "seed, spp, threads");
 
     const InputError top = parse_error(json::parse(R"({"medias": []})"));
     EXPECT_EQ(top.field, "/medias");
@@ -527,8 +529,8 @@ TEST(SceneDescOverride, BadOverridesFailThroughTheNormalChecks) {
 
     const InputError k = catch_input_error([&] { load_scene_desc(path, {"render.spp_count=3"}); });
     EXPECT_EQ(k.field, "/render/spp_count");
-    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: integrator, map_spp, "
-                             "max_depth, seed, spp, threads",
+    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: guide_vertices, integrator, "
+                             "map_spp, max_depth, seed, spp, threads",
                              0),
               0u)
         << k.reason;
@@ -576,6 +578,8 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "threads must be >= 0 (0 = all cores); found -2"},
         {R"({"render": {"map_spp": -1}})", "/render/map_spp",
          "map_spp must be >= 0 (0 = every sample); found -1"},
+        {R"({"render": {"guide_vertices": -1}})", "/render/guide_vertices",
+         "guide_vertices must be in [0, 100000000]; found -1"},
         {R"({"photons": {"global": 1000000001}})", "/photons/global",
          "global must be in [0, 1000000000]; found 1000000001"},
         {R"({"photons": {"caustic": 18446744073709551615}})", "/photons/caustic",
