@@ -31,7 +31,7 @@ struct GuideSettings {
     float radius = 0.0f;          ///< world units: the largest distance of a guide photon
     float phase_fraction = 0.8f;  ///< probability of sampling the phase function, in (0, 1]
     float kappa = 20.0f;          ///< vMF concentration of each lobe (20: ~15° wide)
-    int vertices = 1;             ///< medium vertices guided along a path (the first ones)
+    int vertices = 0;             ///< medium vertices guided along a path (the first ones)
 };
 
 /// One vertex's guide: lobe axes and their cumulative normalised weights.
