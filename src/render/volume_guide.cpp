@@ -1,5 +1,8 @@
 #include "render/volume_guide.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -109,31 +112,34 @@ AdjointGrid::AdjointGrid(const PhotonMap& map, const std::vector<Medium>& media,
         ++count[i];
     }
     values_.assign(cells, Color(0.0f));
-    std::vector<Medium::Sampler> samplers;
-    for (const Medium& m : media) samplers.emplace_back(m);
     const float volume = cell_ * cell_ * cell_;
-    for (size_t i = 0; i < cells; ++i) {
-        if (count[i] < kMinPhotons) continue;
-        const int x = int(i % dims_[0]), y = int(i / dims_[0] % dims_[1]),
-                  z = int(i / (size_t(dims_[0]) * dims_[1]));
-        Color sigma_s(0.0f);
-        for (int o = 0; o < kPoints * kPoints * kPoints; ++o) {
-            const Vec3 at =
-                origin_ +
-                cell_ *
-                    (Vec3(x, y, z) +
-                     (Vec3(o % kPoints, o / kPoints % kPoints, o / (kPoints * kPoints)) + 0.5f) /
-                         float(kPoints));
-            for (Medium::Sampler& s : samplers)
-                sigma_s += s.density(at) * s.medium().params().sigma_s;
+    constexpr int kCellPoints = kPoints * kPoints * kPoints;
+    // Each cell on its own: the same values whatever the threads.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, cells), [&](const auto& range) {
+        std::vector<Medium::Sampler> samplers;
+        for (const Medium& m : media) samplers.emplace_back(m);
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            if (count[i] < kMinPhotons) continue;
+            const Vec3 corner(float(i % dims_[0]), float(i / dims_[0] % dims_[1]),
+                              float(i / (size_t(dims_[0]) * dims_[1])));
+            Color sigma_s(0.0f);
+            for (int o = 0; o < kCellPoints; ++o) {
+                const Vec3 in_cell(o % kPoints, o / kPoints % kPoints, o / (kPoints * kPoints));
+                const Vec3 at = origin_ + cell_ * (corner + (in_cell + 0.5f) / float(kPoints));
+                for (Medium::Sampler& s : samplers)
+                    sigma_s += s.density(at) * s.medium().params().sigma_s;
+            }
+            sigma_s *= 1.0f / float(kCellPoints);
+            if (average(power[i]) > 0.0f) mean_dir_[i] /= average(power[i]);
+            for (int c = 0; c < 3; ++c)
+                if (sigma_s[c] > 0.0f)
+                    values_[i][c] =
+                        power[i][c] * map.photon_power * kInvFourPi / (volume * sigma_s[c]);
         }
-        sigma_s *= 1.0f / float(kPoints * kPoints * kPoints);
-        evaluations_ += size_t(kPoints * kPoints * kPoints) * samplers.size();
-        if (average(power[i]) > 0.0f) mean_dir_[i] /= average(power[i]);
-        for (int c = 0; c < 3; ++c)
-            if (sigma_s[c] > 0.0f)
-                values_[i][c] = power[i][c] * map.photon_power * kInvFourPi / (volume * sigma_s[c]);
-    }
+    });
+    const size_t counted =
+        size_t(std::count_if(count.begin(), count.end(), [](int n) { return n >= kMinPhotons; }));
+    evaluations_ = counted * kCellPoints * media.size();
 }
 
 bool AdjointGrid::cell_of(const Vec3& x, size_t* index) const {
