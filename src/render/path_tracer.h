@@ -139,7 +139,6 @@ private:
     const AdjointSplit* adjoint_;
     bool has_point_lights_ = false;
     bool emissive_ = false;
-    bool camera_pick_ = false;  ///< some medium emits: camera paths collect σ_a L_e
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
