@@ -76,6 +76,15 @@ inline bool intersect_box(const Box3& box, const Ray& ray, float t0, float t1, f
     return true;
 }
 
+/// A lattice's cell edge over `extent`: `cell`, or larger where the lattice would exceed
+/// max_cells cells.
+inline float capped_cell(const Vec3& extent, float cell, size_t max_cells) {
+    const double volume = double(extent.x) * extent.y * extent.z;
+    if (volume / (double(cell) * cell * cell) > double(max_cells))
+        return static_cast<float>(std::cbrt(volume / double(max_cells)));
+    return cell;
+}
+
 inline float max_component(const Color& c) { return std::max(c.x, std::max(c.y, c.z)); }
 inline float average(const Color& c) { return (c.x + c.y + c.z) * (1.0f / 3.0f); }
 inline float luminance(const Color& c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }

@@ -468,4 +468,10 @@ Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_m
     return T * Color(glm::exp(-tau_c));
 }
 
+Color sigma_s_at(std::vector<Medium::Sampler>& media, const Vec3& p) {
+    Color s(0.0f);
+    for (Medium::Sampler& m : media) s += m.density(p) * m.medium().params().sigma_s;
+    return s;
+}
+
 }  // namespace fogmap

@@ -222,4 +222,7 @@ InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& r
 /// work).
 Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_max, Rng& rng);
 
+/// σ_s of every medium at world point p (density 0 outside a medium).
+Color sigma_s_at(std::vector<Medium::Sampler>& media, const Vec3& p);
+
 }  // namespace fogmap

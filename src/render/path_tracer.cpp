@@ -117,8 +117,7 @@ Color PathTracer::point_lights_in_segment(const Ray& ray, float t_max, Rng& rng,
             pdf = 1.0f / (tb - ta);
         }
         const Vec3 x = ray.at(t);
-        Color sigma_s(0.0f);
-        for (Medium::Sampler& m : ts.media) sigma_s += m.density(x) * m.medium().params().sigma_s;
+        const Color sigma_s = sigma_s_at(ts.media, x);
         if (max_component(sigma_s) <= 0.0f) continue;
         const LightSample ls = sample_light(light, x, Vec2(0.5f));
         if (ls.pdf <= 0.0f || max_component(ls.Li) <= 0.0f) continue;

@@ -89,12 +89,11 @@ Vec3 VolumeGuide::sample(const GuideLobes& lobes, const PhaseMix& phase, const V
 
 AdjointGrid::AdjointGrid(const PhotonMap& map, const std::vector<Medium>& media, float cell) {
     Box3 bounds;
-    for (const Medium& m : media)
-        if (!m.world_bounds().empty()) bounds.extend(m.world_bounds());
+    for (const Medium& m : media) bounds.extend(m.world_bounds());
     if (bounds.empty() || !(cell > 0.0f) || map.tree.empty()) return;
-    const Vec3 extent = bounds.hi - bounds.lo;
-    cell_ = std::max(cell, std::cbrt(extent.x * extent.y * extent.z / float(kMaxCells)));
-    for (;;) {
+    const Vec3 extent = bounds.extent();
+    cell_ = capped_cell(extent, cell, kMaxCells);
+    for (;;) {  // the cells' ceilings may still exceed the cap
         for (int a = 0; a < 3; ++a) dims_[a] = std::max(1, int(std::ceil(extent[a] / cell_)));
         if (size_t(dims_[0]) * dims_[1] * dims_[2] <= kMaxCells) break;
         cell_ *= 1.05f;
@@ -125,9 +124,8 @@ AdjointGrid::AdjointGrid(const PhotonMap& map, const std::vector<Medium>& media,
             Color sigma_s(0.0f);
             for (int o = 0; o < kCellPoints; ++o) {
                 const Vec3 in_cell(o % kPoints, o / kPoints % kPoints, o / (kPoints * kPoints));
-                const Vec3 at = origin_ + cell_ * (corner + (in_cell + 0.5f) / float(kPoints));
-                for (Medium::Sampler& s : samplers)
-                    sigma_s += s.density(at) * s.medium().params().sigma_s;
+                sigma_s += sigma_s_at(
+                    samplers, origin_ + cell_ * (corner + (in_cell + 0.5f) / float(kPoints)));
             }
             sigma_s *= 1.0f / float(kCellPoints);
             if (average(power[i]) > 0.0f) mean_dir_[i] /= average(power[i]);

@@ -19,22 +19,6 @@ Color divide(const Color& collisions, const Color& density) {
     return out;
 }
 
-// A lattice's cell edge over `extent`: `cell`, or larger where the lattice would exceed
-// max_cells cells.
-float capped_cell(const Vec3& extent, float cell, size_t max_cells) {
-    const double volume = double(extent.x) * extent.y * extent.z;
-    if (volume / (double(cell) * cell * cell) > double(max_cells))
-        return static_cast<float>(std::cbrt(volume / double(max_cells)));
-    return cell;
-}
-
-// σ_s of every medium at p (density 0 outside a medium).
-Color sigma_s_at(std::vector<Medium::Sampler>& samplers, const Vec3& p) {
-    Color s(0.0f);
-    for (Medium::Sampler& sm : samplers) s += sm.density(p) * sm.medium().params().sigma_s;
-    return s;
-}
-
 // Every medium's |g| lets the lookups read a grid of moments (fits_moment_grid).
 bool moment_grid_fits(const std::vector<Medium>& media) {
     return std::all_of(media.begin(), media.end(),
