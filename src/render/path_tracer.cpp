@@ -200,19 +200,19 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     const PixelSample* first = p.depth == 0 ? p.strata : nullptr;
     ++p.depth;
     const PhaseMix phase(ts.media, x);
-    if (end_ && end_->ends_at(x, ++p.gather_vertices)) {
-        // Direct light by a shadow ray, the rest from the map; the path ends here.
+    const bool map_end = end_ && end_->ends_at(x, ++p.gather_vertices);
+    if (map_end || (adjoint_ && !adjoint_->pixels)) {
+        // Direct light by a shadow ray, the rest from the map (render_pixel_estimate: from L̃);
+        // the path ends here.
         *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
         ++ts.lookups;
-        ts.neighbors.clear();
-        *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
-        ts.gathered += ts.neighbors.size();
-        return false;
-    }
-    if (adjoint_ && !adjoint_->pixels) {  // render_pixel_estimate: direct light and L̃; the end
-        *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
-        ++ts.lookups;
-        *L += p.beta * adjoint_->grid->at(x, p.ray.d, phase);
+        if (map_end) {
+            ts.neighbors.clear();
+            *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
+            ts.gathered += ts.neighbors.size();
+        } else {
+            *L += p.beta * adjoint_->grid->at(x, p.ray.d, phase);
+        }
         return false;
     }
     const bool guided = guide_ && p.depth <= guide_->settings().vertices;
