@@ -136,7 +136,7 @@ PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene, SharedTab
 
 namespace {
 
-PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene_ref, const RunOptions& o) {
+PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const RunOptions& o) {
     const Image* const reference = o.reference;
     Ranks* const ranks = o.ranks;
     const Checkpoints* const checkpoints = o.checkpoints;
@@ -153,7 +153,16 @@ PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene_ref, const R
     };
     const Timer own_timer;
     const Timer& timer = o.timer ? *o.timer : own_timer;
+    // A progressive run's iterations take iteration_size's samples, its photon budgets with them.
+    SceneDesc desc = loaded;
+    std::string iteration_text;
+    if (desc.render.integrator == Integrator::Photon && desc.progressive.enabled()) {
+        const IterationSize size = iteration_size(desc);
+        desc.render.spp = desc.progressive.spp = size.spp;
+        iteration_text = "; progressive: " + size.reason;
+    }
     Plan plan = make_plan(desc);
+    plan.integrator.reason += iteration_text;
     const Scene* const scene = &scene_ref;
     add_phase(&report, "load", o.load_s);
     if (o.pilot_s > 0.0) add_phase(&report, "pilot", o.pilot_s);

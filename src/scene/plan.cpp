@@ -247,6 +247,25 @@ uint64_t volume_budget(const SceneDesc& desc) {
     return std::min(attempts, kVolumeRuleMaxPhotons);
 }
 
+IterationSize iteration_size(const SceneDesc& desc) {
+    const int spp = desc.render.spp;
+    if (desc.progressive.spp > 0)
+        return {desc.progressive.spp,
+                "iterations of " + std::to_string(desc.progressive.spp) + " spp (progressive.spp)"};
+    if (volume_attempts(desc) == 0 || desc.photons.volume_given)
+        return {spp, "iterations of " + std::to_string(spp) +
+                         " spp (render.spp: the photon budgets are the scene's)"};
+    const uint64_t per_spp = uint64_t(desc.camera.width) * desc.camera.height * uint64_t(spp);
+    const uint64_t times = std::max<uint64_t>(1, (kIterationSamples + per_spp - 1) / per_spp);
+    const int n = static_cast<int>(std::min<uint64_t>(times * spp, uint64_t(1) << 30));
+    return {n, "iterations of " + std::to_string(n) + " spp (" +
+                   (n == spp
+                        ? std::string("render.spp")
+                        : "render.spp " + std::to_string(spp) + " times " + std::to_string(times)) +
+                   ": at least " + std::to_string(kIterationSamples) +
+                   " camera samples, the volume map's photons following them)"};
+}
+
 int volume_k(const SceneDesc& desc) {
     if (desc.render.integrator != Integrator::Photon || desc.volume.gather_depth <= 0 ||
         desc.volume.k_given)

@@ -230,6 +230,8 @@ struct ProgressiveDesc {
     int iterations = 0;         ///< stop after this many iterations (0 = no limit)
     float time_budget = 0.0f;   ///< stop once this many seconds have passed (0 = no limit)
     float alpha = 2.0f / 3.0f;  ///< radius reduction, in (0, 1)
+    /// Camera samples per pixel in each iteration; 0 = by rule (scene/plan.h, iteration_size).
+    int spp = 0;
     bool enabled() const { return iterations > 0 || time_budget > 0.0f; }
 };
 

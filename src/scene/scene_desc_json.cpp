@@ -208,6 +208,7 @@ void progressive_fields(P& p, V& v) {
     v.value("iterations", p.iterations);
     v.value("time_budget", p.time_budget);
     v.value("alpha", p.alpha);
+    v.value("spp", p.spp);
 }
 
 // ---- Reading -----------------------------------------------------------------------------------

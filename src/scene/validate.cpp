@@ -557,6 +557,7 @@ void check_progressive(const SceneDesc& desc) {
     k.int_range("iterations", p.iterations, 0, 1000000);
     k.non_negative("time_budget", p.time_budget);
     k.range("alpha", p.alpha, 0.0f, 1.0f, true);
+    if (p.spp < 0) k.fail("spp", "spp must be >= 0 (0 = by rule); found " + std::to_string(p.spp));
     if (p.enabled() && desc.render.integrator != Integrator::Photon &&
         desc.render.integrator != Integrator::Auto)
         k.fail("", "progressive photon mapping needs render.integrator \"photon\"; found \"" +

@@ -1,11 +1,13 @@
 // Progressive photon mapping (Knaus and Zwicker 2011): the radius sequence follows
 // r²_{i+1} = r²_i (i+α)/(i+1) (surfaces) and r³_{i+1} = r³_i (i+α)/(i+1) (volumes), the error
-// against a path-traced reference falls over the iterations on smoke.json, and the photon memory
-// of an iteration does not grow with the iteration count.
+// against a path-traced reference falls over the iterations on smoke.json, the photon memory
+// of an iteration does not grow with the iteration count, and an iteration takes the samples of
+// the iteration-size rule, its volume map's photons following them.
 
 #include "render/gather_params.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
+#include "scene/plan.h"
 #include "scene/scene_desc_json.h"
 
 #include <gtest/gtest.h>
@@ -84,6 +86,34 @@ TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysWithinOneIterationsBudge
         EXPECT_LE(it.photon_bytes, budget_bytes + budget_bytes / 100) << "iteration " << it.index;
         EXPECT_LT(it.radii.volume, r.iterations[0].radii.volume * 1.0001f);
     }
+}
+
+// cloud.json at 32 x 18 and 16 spp: 9 216 camera samples a pass, far below the rule's 2^20; its
+// volume map's budget is the attempts rule's. One iteration renders the rule's samples (the
+// least multiple of 16 at or above 2^20 / 576 a pixel) and its map fills to a photon per attempt,
+// a quarter of those samples; progressive.spp given is the iteration's size, and its map the
+// budget's floor.
+TEST(Progressive, IterationsTakeTheRulesSamplesAndTheMapFollowsThem) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
+    std::vector<std::string> o{"camera.width=32", "camera.height=18", "render.spp=16",
+                               "progressive.iterations=1"};
+    const uint64_t pixels = 32 * 18;
+    const int spp = 16 * int((kIterationSamples + pixels * 16 - 1) / (pixels * 16));  // 1824
+    const Report r = run_pipeline(load_scene_desc(path, o), true).report;
+    EXPECT_EQ(r.spp, spp);
+    ASSERT_EQ(r.maps.size(), 1u);
+    EXPECT_EQ(r.maps[0].name, "volume");
+    EXPECT_GE(double(r.maps[0].stored), kVolumeAttemptsPerSample * double(spp) * double(pixels));
+    EXPECT_NE(r.plan_text.find("iterations of " + std::to_string(spp) + " spp"), std::string::npos)
+        << r.plan_text;
+
+    o.push_back("progressive.spp=8");
+    o.push_back("progressive.iterations=2");
+    const Report given = run_pipeline(load_scene_desc(path, o), true).report;
+    EXPECT_EQ(given.spp, 16);  // two iterations of 8
+    ASSERT_EQ(given.maps.size(), 1u);
+    // 1 152 attempts by the samples: the budget's floor, photons.volume's default 100 000
+    EXPECT_LT(double(given.maps[0].stored), 0.5 * double(r.maps[0].stored));
 }
 
 }  // namespace

@@ -368,6 +368,40 @@ TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
     EXPECT_EQ(volume_budget(scene(doc)), 100000u);
 }
 
+// A progressive iteration's samples: the least multiple of render.spp that gives
+// kIterationSamples camera samples where the volume map's photons follow the samples (the
+// attempts rule's budget); the scene's render.spp where they do not; progressive.spp when given.
+TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
+    json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
+    doc["render"]["spp"] = 4;        // 480 000 samples: x3 gives 1 440 000, x2 960 000 < 2^20
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 12);
+    doc["render"]["spp"] = 3;  // x3 = 9 spp: 1 080 000; 8 spp would not be a multiple of 3
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 9);
+    doc["render"]["spp"] = 64;  // 7.7 million samples already
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 64);
+    for (const int width : {1, 7, 160, 1023}) {  // the rule's two bounds, checked as products
+        doc["camera"]["width"] = width;
+        doc["camera"]["height"] = 1;
+        doc["render"]["spp"] = 5;
+        const int n = iteration_size(scene(doc)).spp;
+        EXPECT_EQ(n % 5, 0) << width;
+        EXPECT_GE(uint64_t(n) * width, kIterationSamples) << width;
+        EXPECT_LT(uint64_t(n - 5) * width, kIterationSamples) << width;
+    }
+    doc = ending_in_the_map();
+    doc["render"]["spp"] = 4;
+    doc["progressive"]["spp"] = 2;  // given: kept
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 2);
+    EXPECT_NE(iteration_size(scene(doc)).reason.find("progressive.spp"), std::string::npos);
+    doc["progressive"].erase("spp");
+    apply_override(doc, "photons.volume=100000", "scene.json");  // the scene's budget: its spp
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
+    doc["photons"].erase("volume");
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 12);
+    doc["volume"]["gather_depth"] = 0;  // no attempts rule: the scene's budgets and render.spp
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
+}
+
 // The volume map's k with paths ending in it: twice volume.k where a medium's phase function is
 // too peaked for the moment grid, unless the scene gives k; volume.k otherwise.
 TEST(Plan, VolumeKDoublesForAPeakedPhaseFunctionUnlessTheSceneGivesOne) {

@@ -78,7 +78,7 @@ json full_scene() {
       "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
                  "light_samples": 3, "gather_depth": 2, "gather_tau": 0.75, "sun_grid": 2.5},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
-      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5}
+      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5, "spp": 24}
     })");
 }
 
@@ -145,6 +145,7 @@ TEST(SceneDescJson, ReadsEveryFieldOfAFullScene) {
     EXPECT_EQ(d.volume.sun_grid, 2.5f);
     EXPECT_EQ(d.volume.light_samples, 3);
     EXPECT_EQ(d.progressive.alpha, 0.5f);
+    EXPECT_EQ(d.progressive.spp, 24);
     EXPECT_EQ(d.volume.estimator, VolumeEstimator::Sphere);
     EXPECT_EQ(d.march.method, FreePathMethod::Delta);
     EXPECT_EQ(d.march.step_voxels, 0.5f);
@@ -621,6 +622,8 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "alpha must be in (0, 1); found 1"},
         {R"({"progressive": {"iterations": -2}})", "/progressive/iterations",
          "iterations must be in [0, 1000000]; found -2"},
+        {R"({"progressive": {"spp": -1}})", "/progressive/spp",
+         "spp must be >= 0 (0 = by rule); found -1"},
         {R"({"progressive": {"time_budget": -1}})", "/progressive/time_budget",
          "time_budget must be finite and >= 0; found -1"},
         {R"({"progressive": {"iterations": 4}})", "/progressive",
