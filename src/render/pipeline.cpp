@@ -260,6 +260,7 @@ PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const
     Ranks* const pass_ranks = progressive ? nullptr : ranks;
     double checkpointed_s = 0.0;
     int own = 0;  // iterations this rank ran itself
+    const double loop_start_s = timer.seconds();
     for (int round = 0;; ++round) {
         const int i = progressive ? base + round * n_ranks + my_rank + 1 : 1;
         const bool runs = !progressive || !(p.iterations > 0 && i > p.iterations);
@@ -403,7 +404,10 @@ PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const
         if (!progressive) break;
         const int ran = base + (round + 1) * n_ranks;
         if (p.iterations > 0 && ran >= p.iterations) break;
-        const bool out_of_time = p.time_budget > 0.0f && timer.seconds() >= p.time_budget;
+        // Out of time when another round would end further past the budget than this one ends
+        // before it (a round taking the mean time so far): the run ends within half a round of it.
+        const double now_s = timer.seconds(), round_s = (now_s - loop_start_s) / (round + 1);
+        const bool out_of_time = p.time_budget > 0.0f && now_s + 0.5 * round_s >= p.time_budget;
         if (ranks ? ranks->any(out_of_time) : out_of_time) break;
         // A checkpoint after a whole round: every iteration up to `ran` is in some rank's sum.
         if (checkpoints && checkpoints->every_s > 0.0) {
