@@ -4,6 +4,7 @@
 #include "core/timer.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
+#include "scene/plan.h"
 
 #include <algorithm>
 #include <cmath>
@@ -93,7 +94,9 @@ double median(std::vector<double> v) {
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference, Ranks* ranks) {
     BenchRow row;
     row.method = desc.render.auto_media ? "auto" : to_string(desc.render.integrator);
-    row.spp = desc.render.spp;
+    const bool progressive =
+        desc.render.integrator == Integrator::Photon && desc.progressive.enabled();
+    row.spp = progressive ? iteration_size(desc).spp : desc.render.spp;  // as the run takes it
     row.repeats = std::max(repeats, 1);
     std::vector<std::vector<double>> phases(kBenchPhases.size());
     std::vector<double> totals, rmse, rel_mse, bias;

@@ -38,7 +38,7 @@ inline constexpr std::array<const char*, 3> kBenchMaps{"global", "caustic", "vol
 struct BenchRow {
     std::string method;  ///< render.integrator ("photon", "path", "guided"), or "auto" (piloted)
     std::vector<std::string> swept;  ///< value of each swept key ("" = not swept here)
-    int spp = 0;                     ///< render.spp of the run
+    int spp = 0;                     ///< render.spp of the run (an iteration's: iteration_size)
     int repeats = 0;                 ///< runs the medians are taken over
     int ranks = 1;                   ///< MPI ranks the run was spread over
     int threads = 0;                 ///< worker threads per rank
