@@ -153,13 +153,17 @@ PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const
     };
     const Timer own_timer;
     const Timer& timer = o.timer ? *o.timer : own_timer;
-    // A progressive run's iterations take iteration_size's samples, its photon budgets with them.
+    // A photon render's iterations take iteration_size's samples, its photon budgets with them;
+    // a plain render it splits is a progressive run of so many iterations.
     SceneDesc desc = loaded;
     std::string iteration_text;
-    if (desc.render.integrator == Integrator::Photon && desc.progressive.enabled()) {
+    if (desc.render.integrator == Integrator::Photon) {
         const IterationSize size = iteration_size(desc);
-        desc.render.spp = desc.progressive.spp = size.spp;
-        iteration_text = "; progressive: " + size.reason;
+        if (desc.progressive.enabled() || size.iterations > 1) {
+            desc.render.spp = desc.progressive.spp = size.spp;
+            desc.progressive.iterations = size.iterations;
+            iteration_text = "; " + size.reason;
+        }
     }
     Plan plan = make_plan(desc);
     plan.integrator.reason += iteration_text;

@@ -248,22 +248,43 @@ uint64_t volume_budget(const SceneDesc& desc) {
 }
 
 IterationSize iteration_size(const SceneDesc& desc) {
-    const int spp = desc.render.spp;
-    if (desc.progressive.spp > 0)
-        return {desc.progressive.spp,
-                "iterations of " + std::to_string(desc.progressive.spp) + " spp (progressive.spp)"};
-    if (volume_attempts(desc) == 0 || desc.photons.volume_given)
-        return {spp, "iterations of " + std::to_string(spp) +
-                         " spp (render.spp: the photon budgets are the scene's)"};
-    const uint64_t per_spp = uint64_t(desc.camera.width) * desc.camera.height * uint64_t(spp);
-    const uint64_t times = std::max<uint64_t>(1, (kIterationSamples + per_spp - 1) / per_spp);
-    const int n = static_cast<int>(std::min<uint64_t>(times * spp, uint64_t(1) << 30));
-    return {n, "iterations of " + std::to_string(n) + " spp (" +
-                   (n == spp
-                        ? std::string("render.spp")
-                        : "render.spp " + std::to_string(spp) + " times " + std::to_string(times)) +
-                   ": at least " + std::to_string(kIterationSamples) +
-                   " camera samples, the volume map's photons following them)"};
+    const int spp = desc.render.spp, given = desc.progressive.spp;
+    const bool rule = volume_attempts(desc) > 0 && !desc.photons.volume_given;
+    const uint64_t pixels = uint64_t(desc.camera.width) * desc.camera.height;
+    const auto text = [](int n, const std::string& why) {
+        return "iterations of " + std::to_string(n) + " spp (" + why + ")";
+    };
+    const std::string samples = "at least " + std::to_string(kIterationSamples) +
+                                " camera samples, the volume map's photons following them";
+    if (desc.progressive.enabled()) {
+        const int iterations = desc.progressive.iterations;
+        if (given > 0) return {given, iterations, "progressive: " + text(given, "progressive.spp")};
+        if (!rule)
+            return {spp, iterations,
+                    "progressive: " + text(spp, "render.spp: the photon budgets are the scene's")};
+        const uint64_t per_spp = pixels * uint64_t(spp);
+        const uint64_t times = std::max<uint64_t>(1, (kIterationSamples + per_spp - 1) / per_spp);
+        const int n = static_cast<int>(std::min<uint64_t>(times * spp, uint64_t(1) << 30));
+        return {n, iterations,
+                "progressive: " + text(n, (n == spp ? std::string("render.spp")
+                                                    : "render.spp " + std::to_string(spp) +
+                                                          " times " + std::to_string(times)) +
+                                              ": " + samples)};
+    }
+    const std::string split = "render.spp " + std::to_string(spp) + " as ";
+    if (given > 0 && given < spp) {
+        const int iterations = (spp + given - 1) / given;
+        return {
+            given, iterations,
+            split + std::to_string(iterations) + " progressive " + text(given, "progressive.spp")};
+    }
+    const uint64_t iterations = rule ? pixels * uint64_t(spp) / kIterationSamples : 1;
+    if (given > 0 || iterations < 2) return {spp, 1, ""};
+    const int n = static_cast<int>((uint64_t(spp) + iterations - 1) / iterations);
+    return {n, static_cast<int>(iterations),
+            split + std::to_string(iterations) + " progressive " +
+                text(n, samples + "; smaller maps than one of all the samples' photons, looked up "
+                                  "faster")};
 }
 
 int volume_k(const SceneDesc& desc) {

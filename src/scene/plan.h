@@ -89,24 +89,32 @@ uint64_t volume_attempts(const SceneDesc& desc);
 /// left the map's noise half the image's); otherwise photons.volume.
 uint64_t volume_budget(const SceneDesc& desc);
 
-/// A progressive iteration's camera samples per pixel, and the Plan's words for it.
+/// How a photon render takes its camera samples: iterations of `spp` samples per pixel.
 struct IterationSize {
     int spp = 1;
-    std::string reason;
+    int iterations = 1;  ///< a progressive run's: progressive.iterations (0: by time budget)
+    std::string reason;  ///< for the Plan; "" for a plain render of one iteration
 };
 
-/// Camera samples a progressive iteration takes at least where the volume map's photons follow
-/// the samples: smaller iterations spend more of the time on what each iteration repeats (the
-/// photon budget's floor, the grids, the trees) and start from the wider radius of a sparser first
-/// map. On smoke1 and the Disney cloud over the ground (160 x 120: 56 spp) relMSE x time at 3 and
-/// 10 s came to 0.54-0.63 of 4 spp's; 16 to 64 spp were within 4% of it, 256 overshot the budget
-/// by an iteration and lost 1.06-1.41x (README, "Progressive photon mapping").
+/// Camera samples an iteration takes at least where the volume map's photons follow the samples
+/// (the attempts rule's budget). Smaller iterations spend more of the time on what each iteration
+/// repeats (the photon budget's floor, the grids, the trees) and start from the wider radius of a
+/// sparser first map: on smoke1 and the Disney cloud over the ground (160 x 120) progressive runs
+/// of 3 and 10 s had 0.54-0.63 of the relMSE x time of 4-spp iterations; 16 to 64 spp were within
+/// 4% of 2^20 samples, 256 overshot the budget by an iteration and lost 1.06-1.41x. Larger maps
+/// cost more than their photons: one iteration of 384 spp of the cloud and 512 of smoke1 (1.8 and
+/// 2.5 million photons) took 1.28x and 1.15x the CPU time of 7 and 9 iterations of the same
+/// samples and photons, for 0.97x and 1.07x their relMSE (README, "Progressive photon mapping").
 inline constexpr uint64_t kIterationSamples = uint64_t(1) << 20;
 
-/// progressive.spp when the scene sets it; else where the volume map's budget is the attempts
-/// rule's (volume_attempts > 0, photons.volume not given) the least multiple of render.spp that
-/// gives kIterationSamples camera samples (render.spp if it already does); else render.spp, whose
-/// balance with the scene's photon budgets is the scene's.
+/// For the photon integrator. A progressive run: iterations of progressive.spp when the scene
+/// sets it; else, where the volume map's budget is the attempts rule's (volume_attempts > 0,
+/// photons.volume not given), of the least multiple of render.spp that gives kIterationSamples
+/// camera samples; else of render.spp (the balance with the scene's photon budgets is the
+/// scene's). A plain render of N = render.spp: progressive.spp given, ceil(N / progressive.spp)
+/// iterations of it; else, under the attempts rule with N x pixels >= 2 kIterationSamples,
+/// I = floor(N x pixels / kIterationSamples) iterations of ceil(N / I) spp (progressive photon
+/// mapping's: the radius shrinks over them); else one iteration of N.
 IterationSize iteration_size(const SceneDesc& desc);
 
 /// The most photons volume_budget asks for (168 MB of photons).

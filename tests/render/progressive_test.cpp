@@ -116,5 +116,23 @@ TEST(Progressive, IterationsTakeTheRulesSamplesAndTheMapFollowsThem) {
     EXPECT_LT(double(given.maps[0].stored), 0.5 * double(r.maps[0].stored));
 }
 
+// A plain render of cloud.json at 32 x 18 and 4096 spp (2 359 296 camera samples, its volume
+// map's budget the attempts rule's) runs as floor(samples / 2^20) = 2 progressive iterations of
+// 2048 spp, with the radius of the second shrunk by Knaus and Zwicker's schedule.
+TEST(Progressive, PlainRendersOfManySamplesRunAsIterations) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
+    const SceneDesc desc =
+        load_scene_desc(path, {"camera.width=32", "camera.height=18", "render.spp=4096"});
+    const Report r = run_pipeline(desc, true).report;
+    ASSERT_EQ(r.iterations.size(), 2u);
+    EXPECT_EQ(r.spp, 4096);
+    EXPECT_NE(r.plan_text.find("render.spp 4096 as 2 progressive iterations of 2048 spp"),
+              std::string::npos)
+        << r.plan_text;
+    const float alpha = desc.progressive.alpha;  // r2^3 = r1^3 (1 + alpha) / 2
+    EXPECT_NEAR(std::pow(r.iterations[1].radii.volume / r.iterations[0].radii.volume, 3.0f),
+                (1.0f + alpha) / 2.0f, 1e-5f);
+}
+
 }  // namespace
 }  // namespace fogmap

@@ -373,7 +373,8 @@ TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
 // attempts rule's budget); the scene's render.spp where they do not; progressive.spp when given.
 TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
-    doc["render"]["spp"] = 4;        // 480 000 samples: x3 gives 1 440 000, x2 960 000 < 2^20
+    doc["progressive"]["time_budget"] = 10;
+    doc["render"]["spp"] = 4;  // 480 000 samples: x3 gives 1 440 000, x2 960 000 < 2^20
     EXPECT_EQ(iteration_size(scene(doc)).spp, 12);
     doc["render"]["spp"] = 3;  // x3 = 9 spp: 1 080 000; 8 spp would not be a multiple of 3
     EXPECT_EQ(iteration_size(scene(doc)).spp, 9);
@@ -389,6 +390,7 @@ TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
         EXPECT_LT(uint64_t(n - 5) * width, kIterationSamples) << width;
     }
     doc = ending_in_the_map();
+    doc["progressive"]["time_budget"] = 10;
     doc["render"]["spp"] = 4;
     doc["progressive"]["spp"] = 2;  // given: kept
     EXPECT_EQ(iteration_size(scene(doc)).spp, 2);
@@ -400,6 +402,47 @@ TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     EXPECT_EQ(iteration_size(scene(doc)).spp, 12);
     doc["volume"]["gather_depth"] = 0;  // no attempts rule: the scene's budgets and render.spp
     EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
+}
+
+// A plain render under the attempts rule with at least twice kIterationSamples camera samples
+// runs as I = floor(samples / kIterationSamples) iterations, each of the least spp that keeps
+// render.spp; one iteration below that, with the scene's budget or without the rule;
+// progressive.spp given splits render.spp into iterations of it.
+TEST(Plan, PlainRendersOfManySamplesSplitIntoIterationsOfAMillion) {
+    json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
+    const uint64_t pixels = 120000;
+    for (const int spp : {18, 64, 1000}) {
+        doc["render"]["spp"] = spp;
+        const IterationSize size = iteration_size(scene(doc));
+        const uint64_t samples = pixels * uint64_t(spp);
+        ASSERT_GE(size.iterations, 2) << spp;
+        EXPECT_LE(uint64_t(size.iterations) * kIterationSamples, samples) << spp;
+        EXPECT_GT(uint64_t(size.iterations + 1) * kIterationSamples, samples) << spp;
+        EXPECT_GE(size.spp * size.iterations, spp) << spp;
+        EXPECT_LT((size.spp - 1) * size.iterations, spp) << spp;
+        EXPECT_NE(size.reason.find("as " + std::to_string(size.iterations) + " progressive"),
+                  std::string::npos)
+            << size.reason;
+    }
+    doc["render"]["spp"] = 64;  // 7 680 000 samples: 7 iterations of 10 spp
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, 7);
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 10);
+    doc["render"]["spp"] = 17;  // 2 040 000 samples < 2^21: one iteration
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, 1);
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 17);
+    EXPECT_EQ(iteration_size(scene(doc)).reason, "");
+    doc["render"]["spp"] = 64;
+    doc["progressive"]["spp"] = 24;  // given: 3 iterations of 24
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, 3);
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 24);
+    doc["progressive"]["spp"] = 64;  // given as render.spp: one iteration
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, 1);
+    doc["progressive"].erase("spp");
+    json given = doc;
+    given["photons"]["volume"] = 100000;  // the scene's budget: one iteration
+    EXPECT_EQ(iteration_size(scene(given)).iterations, 1);
+    doc["volume"]["gather_depth"] = 0;  // no attempts rule
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, 1);
 }
 
 // The volume map's k with paths ending in it: twice volume.k where a medium's phase function is
