@@ -123,6 +123,7 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             d.render.spp = pilot.spp;
             d.render.seed = mix64(desc.render.seed ^ (0x70696c6f74000000ull + k));
             d.render.tile_count = pilot.tile_count;
+            d.progressive.spp = pilot.spp;  // one iteration (iteration_size): the share's samples
             d.photons.global = scaled(d.photons.global);
             d.photons.caustic = scaled(d.photons.caustic);
             d.photons.volume =
