@@ -103,7 +103,7 @@ struct IterationSize {
 /// of 3 and 10 s had 0.54-0.63 of the relMSE x time of 4-spp iterations; 16 to 64 spp were within
 /// 4% of 2^20 samples, 256 overshot the budget by an iteration and lost 1.06-1.41x. Larger maps
 /// cost more than their photons: one iteration of 384 spp of the cloud and 512 of smoke1 (1.8 and
-/// 2.5 million photons) took 1.28x and 1.15x the CPU time of 7 and 9 iterations of the same
+/// 2.5 million photons) took 1.28x and 1.11-1.15x the CPU time of 7 and 9 iterations of the same
 /// samples and photons, for 0.97x and 1.07x their relMSE (README, "Progressive photon mapping").
 inline constexpr uint64_t kIterationSamples = uint64_t(1) << 20;
 
