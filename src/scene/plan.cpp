@@ -278,7 +278,10 @@ IterationSize iteration_size(const SceneDesc& desc) {
             given, iterations,
             split + std::to_string(iterations) + " progressive " + text(given, "progressive.spp")};
     }
-    const uint64_t iterations = rule ? pixels * uint64_t(spp) / kIterationSamples : 1;
+    const uint64_t iterations = rule
+                                    ? std::min<uint64_t>(pixels * uint64_t(spp) / kIterationSamples,
+                                                         kMaxProgressiveIterations)
+                                    : 1;
     if (given > 0 || iterations < 2) return {spp, 1, ""};
     const int n = static_cast<int>((uint64_t(spp) + iterations - 1) / iterations);
     return {n, static_cast<int>(iterations),

@@ -224,6 +224,9 @@ inline constexpr float kSunGridMaxRadiusDeg = 1.0f;
 /// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
 inline constexpr int kLatestEndFactor = 4;
 
+/// The most iterations a progressive run (or a plain render split into iterations) takes.
+inline constexpr int kMaxProgressiveIterations = 1000000;
+
 /// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0
 /// (photon integrator only): iterations of photon pass + render with shrinking fixed radii.
 struct ProgressiveDesc {

@@ -554,7 +554,7 @@ void check_march(const SceneDesc& desc) {
 void check_progressive(const SceneDesc& desc) {
     const ProgressiveDesc& p = desc.progressive;
     const Checker k(desc, "/progressive");
-    k.int_range("iterations", p.iterations, 0, 1000000);
+    k.int_range("iterations", p.iterations, 0, kMaxProgressiveIterations);
     k.non_negative("time_budget", p.time_budget);
     k.range("alpha", p.alpha, 0.0f, 1.0f, true);
     if (p.spp < 0) k.fail("spp", "spp must be >= 0 (0 = by rule); found " + std::to_string(p.spp));

@@ -424,6 +424,9 @@ TEST(Plan, PlainRendersOfManySamplesSplitIntoIterationsOfAMillion) {
                   std::string::npos)
             << size.reason;
     }
+    doc["render"]["spp"] = 1 << 30;  // 1.3e14 samples: at most kMaxProgressiveIterations
+    EXPECT_EQ(iteration_size(scene(doc)).iterations, kMaxProgressiveIterations);
+    EXPECT_EQ(iteration_size(scene(doc)).spp, (1 << 30) / kMaxProgressiveIterations + 1);
     doc["render"]["spp"] = 64;  // 7 680 000 samples: 7 iterations of 10 spp
     EXPECT_EQ(iteration_size(scene(doc)).iterations, 7);
     EXPECT_EQ(iteration_size(scene(doc)).spp, 10);
