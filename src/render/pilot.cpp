@@ -4,6 +4,7 @@
 #include "core/rng.h"
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
+#include "render/tiles.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
 
@@ -39,25 +40,25 @@ constexpr int kPilotSpp = 4;
 constexpr double kPilotMinPhotons = 1.0 / 16.0;
 static_assert(kPilotSpp % kStrataGroup == 0, "the pilot's samples stratify as the render's");
 
-// The pilot's pixels, the tiles t ≡ 0 (mod count) of render/tiles.h's 16x16 tiles (rows in
-// turn), kept in one compact array: each of those tiles' rows in turn, so the pilot holds 1/count
-// of an image per run instead of a whole one.
+// The pilot's pixels, the tiles t ≡ 0 (mod count) of render/tiles.h's kTile × kTile tiles
+// (rows in turn), kept in one compact array: each of those tiles' rows in turn, so the pilot
+// holds 1/count of an image per run instead of a whole one.
 class ShareLayout {
 public:
     ShareLayout(int width, int height, int count)
-        : width_(width), height_(height), tiles_x_((width + 15) / 16), count_(count) {
-        const int tiles = tiles_x_ * ((height + 15) / 16);
+        : width_(width), height_(height), tiles_x_((width + kTile - 1) / kTile), count_(count) {
+        const int tiles = tiles_x_ * ((height + kTile - 1) / kTile);
         for (int t = 0; t < tiles; t += count) {
             offset_.push_back(size_);
-            const int x0 = (t % tiles_x_) * 16, y0 = (t / tiles_x_) * 16;
-            size_ += size_t(std::min(16, width - x0)) * size_t(std::min(16, height - y0));
+            const int x0 = (t % tiles_x_) * kTile, y0 = (t / tiles_x_) * kTile;
+            size_ += size_t(std::min(kTile, width - x0)) * size_t(std::min(kTile, height - y0));
         }
     }
     size_t size() const { return size_; }
-    bool contains(int x, int y) const { return ((y / 16) * tiles_x_ + x / 16) % count_ == 0; }
+    bool contains(int x, int y) const { return ((y / kTile) * tiles_x_ + x / kTile) % count_ == 0; }
     size_t index(int x, int y) const {  // of a pixel it contains
-        const int t = (y / 16) * tiles_x_ + x / 16, x0 = (x / 16) * 16;
-        return offset_[t / count_] + size_t(y % 16) * size_t(std::min(16, width_ - x0)) +
+        const int t = (y / kTile) * tiles_x_ + x / kTile, x0 = (x / kTile) * kTile;
+        return offset_[t / count_] + size_t(y % kTile) * size_t(std::min(kTile, width_ - x0)) +
                size_t(x - x0);
     }
     /// The share's pixels of a whole image.
@@ -89,7 +90,8 @@ Work work_units(const Report& r) {
 
 Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
     const int width = desc.camera.width, height = desc.camera.height;
-    const int tiles_x = (width + 15) / 16, tiles = tiles_x * ((height + 15) / 16);
+    const int tiles_x = (width + kTile - 1) / kTile,
+              tiles = tiles_x * ((height + kTile - 1) / kTile);
     Pilot pilot;
     // As many tiles as the share allows at 4 spp (1 in 2048 / spp; all of them, at spp / 512,
     // from 2048 spp), for the variance of many pixels. A count prime to the tiles of a row
