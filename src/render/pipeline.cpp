@@ -193,6 +193,7 @@ PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const
     const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
     std::optional<GatherParams> first_gather;
     std::optional<SigmaTable> sigma_table;  // map_end: σ_s over boxes, for every iteration
+    VolumeMapEnd::Buffers end_buffers;      // map_end: each iteration's grids in the last's memory
     // map_end: the suns' optical depth, every iteration (and every run sharing the tables)
     SharedTables own_tables;
     std::optional<SunShadows>& sun_shadows = (o.shared ? o.shared : &own_tables)->sun;
@@ -351,7 +352,7 @@ PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const
                                             : float(first_gather->volume.k) *
                                                   std::pow(gather.volume.radius / r1, 3.0f);
                         end.emplace(*maps.volume, scene->media, gather.volume.radius,
-                                    gather.gather_depth, k, desc.volume.gather_tau);
+                                    gather.gather_depth, k, desc.volume.gather_tau, &end_buffers);
                         report.precompute_nodes += end->nodes();
                         if (end->wants_table()) {
                             if (!sigma_table) {

@@ -19,6 +19,14 @@ Color divide(const Color& collisions, const Color& density) {
     return out;
 }
 
+// Capacity for n elements in a vector kept between iterations, twice n when it must grow: the
+// grids grow as the radius shrinks (as i^(1/3) over progressive iterations), and memory reserved
+// is only faulted in where written.
+template <class T>
+void reserve_recycled(std::vector<T>* v, size_t n) {
+    if (v->capacity() < n) v->reserve(2 * n);
+}
+
 // Every medium's |g| lets the lookups read a grid of moments (fits_moment_grid).
 bool moment_grid_fits(const std::vector<Medium>& media) {
     return std::all_of(media.begin(), media.end(),
@@ -27,7 +35,7 @@ bool moment_grid_fits(const std::vector<Medium>& media) {
 
 }  // namespace
 
-KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
+KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius, Buffers* recycle) {
     Box3 bounds;
     for (const Medium& m : media) bounds.extend(m.world_bounds());
     if (bounds.empty() || !(radius > 0.0f)) return;
@@ -38,7 +46,15 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
     origin_ = bounds.lo - Vec3(2.0f * edge);
     for (int a = 0; a < 3; ++a) dims_[a] = static_cast<int>(std::ceil(extent[a] / cell_)) + 1;
     const size_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
-    std::vector<Color> points(nx * ny * nz);
+    // Every point and value is written below: resizing recycled vectors keeps their pages.
+    std::vector<Color> points;
+    if (recycle) {
+        points = std::move(recycle->points);
+        values_ = std::move(recycle->values);
+        reserve_recycled(&points, nx * ny * nz);
+        reserve_recycled(&values_, nx * ny * nz);
+    }
+    points.resize(nx * ny * nz);
     tbb::parallel_for(0, dims_[2], [&](int k) {
         std::vector<Medium::Sampler> samplers;
         for (const Medium& m : media) samplers.emplace_back(m);
@@ -63,6 +79,7 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius) {
             to[n] = s / 3.0f;
         });
     }
+    if (recycle) recycle->points = std::move(points);
 }
 
 bool KernelDensity::corners(const Vec3& x, Corners* out) const {
@@ -179,24 +196,40 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth, float k, float max_tau)
-    : map_(map),
+                           int depth, float k, float max_tau, Buffers* recycle)
+    : recycle_(recycle),
+      map_(map),
       radius_(radius),
       depth_(depth),
-      density_(media, radius),
+      density_(media, radius, recycle ? &recycle->density : nullptr),
       phase_fits_(moment_grid_fits(media)),
       k_(k),
       max_tau_(max_tau) {
     // Without moments the grid is for AdaptiveRadius's counts alone.
     if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
         return;
-    std::vector<size_t> nodes;
+    if (recycle) {
+        slot_ = std::move(recycle->slot);
+        moments_ = std::move(recycle->moments);
+        counts_ = std::move(recycle->counts);
+    }
+    std::vector<size_t> scratch;
+    std::vector<size_t>& nodes = recycle ? recycle->nodes : scratch;
+    nodes.clear();
     for (size_t n = 0; n < density_.nodes(); ++n)
         if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
-    if (nodes.size() > kMaxMomentNodes) return;
+    if (nodes.size() > kMaxMomentNodes) {  // no grid: the recycled vectors say none
+        slot_.clear();
+        counts_.clear();
+        return;
+    }
+    if (recycle) {
+        reserve_recycled(&slot_, density_.nodes());
+        reserve_recycled(&moments_, nodes.size());
+    }
     slot_.assign(density_.nodes(), -1);
     for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
-    moments_.resize(nodes.size());
+    moments_.assign(nodes.size(), Moments{});
     // Each photon adds to the grid points within r of it. Per layer of grid points (z), its
     // photons in the map's order: each point's sums are the same whatever the thread count.
     const std::array<int, 3> dims = density_.dims();
@@ -248,7 +281,17 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
     if (crowded_anywhere_ && max_tau_ > 0.0f) {
         counts_.resize(moments_.size());
         for (size_t i = 0; i < moments_.size(); ++i) counts_[i] = moments_[i].count;
+    } else {
+        counts_.clear();
     }
+}
+
+VolumeMapEnd::~VolumeMapEnd() {
+    if (!recycle_) return;
+    density_.give_back(&recycle_->density);
+    recycle_->slot = std::move(slot_);
+    recycle_->moments = std::move(moments_);
+    recycle_->counts = std::move(counts_);
 }
 
 bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,

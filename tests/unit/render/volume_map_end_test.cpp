@@ -333,6 +333,50 @@ PhotonMap uniform_photons(int count, float half, Rng& rng) {
     return map;
 }
 
+// Buffers: maps built in the memory an earlier map left (progressive iterations) give exactly
+// the lookups of maps built afresh, whether that memory was larger (a smaller radius before: a
+// finer grid) or smaller, with the moments, the crowded lookups' counts and the kd-tree's.
+TEST(VolumeMapEnd, MapsBuiltInRecycledMemoryLookUpAsFreshOnes) {
+    const std::vector<Medium> media{
+        Medium::heterogeneous({Color(1.0f, 0.8f, 0.6f), Color(0.1f), 0.3f},
+                              load_ramp("fogmap_recycle_ramp.vdb"), Mat4(1.0f))};
+    Rng rng(29, 2);
+    std::vector<Photon> photons;
+    for (int i = 0; i < 60000; ++i)
+        photons.emplace_back(Vec3(0.1f) + 3.8f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()),
+                             sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())),
+                             Color(1.0f));
+    PhotonMap map;
+    map.tree = KdTree<Photon>(std::move(photons));
+    map.photon_power = 0.001f;
+    const SigmaTable table(media, 1.0f);
+    const PhaseMix phase(0.3f);
+    NeighborList scratch;
+    VolumeMapEnd::Buffers buffers;
+    // k 20 crowds the balls (AdaptiveRadius, counts kept for FineEnough's max_tau 0.5).
+    for (const float radius : {0.3f, 0.5f, 0.25f, 0.4f}) {
+        SCOPED_TRACE("radius " + std::to_string(radius));
+        VolumeMapEnd fresh(map, media, radius, 3, 20.0f, 0.5f);
+        VolumeMapEnd recycled(map, media, radius, 3, 20.0f, 0.5f, &buffers);
+        ASSERT_TRUE(fresh.interpolates());
+        ASSERT_TRUE(fresh.wants_table());
+        EXPECT_EQ(recycled.nodes(), fresh.nodes());
+        EXPECT_EQ(recycled.interpolates(), fresh.interpolates());
+        EXPECT_EQ(recycled.wants_table(), fresh.wants_table());
+        fresh.set_table(&table);
+        recycled.set_table(&table);
+        Rng at(31, 7);
+        for (int i = 0; i < 200; ++i) {
+            const Vec3 x = 3.8f * Vec3(at.uniform(), at.uniform(), at.uniform()) + 0.1f;
+            const Vec3 dir = sample_uniform_sphere(Vec2(at.uniform(), at.uniform()));
+            const Color a = fresh.inscattered(x, dir, phase, scratch);
+            const Color b = recycled.inscattered(x, dir, phase, scratch);
+            for (int c = 0; c < 3; ++c) EXPECT_EQ(a[c], b[c]) << "at " << i;
+            EXPECT_EQ(fresh.optical_radius(x), recycled.optical_radius(x)) << "at " << i;
+        }
+    }
+}
+
 // FineEnough: inside a homogeneous medium the ball spans σ_s r scattering mean free paths (the
 // most scattering channel's); a path ends at its D-th medium vertex where that is at most
 // max_tau, else at the first later vertex where it is, and at vertex 4D in any case.
