@@ -11,7 +11,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include <unistd.h>
+
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <fstream>
 #include <new>
@@ -38,10 +42,31 @@ uint64_t peak_bytes() {
     return 0;
 }
 
+/// Runs this program again with glibc's malloc advising transparent huge pages for its heap and
+/// large blocks (GLIBC_TUNABLES glibc.malloc.hugetlb=1; glibc reads tunables only at start), where
+/// the kernel gives them on advice alone (/sys/kernel/mm/transparent_hugepage/enabled
+/// "[madvise]", Debian's default). The grids (OpenVDB's leaves, moments, sun shadows) then fault
+/// in 2 MB at a time and miss the TLB less: on smoke1 over the ground (160x120, 7 paired runs)
+/// a 64-spp photon render took 0.89 of the wall time, ten progressive iterations and a 256-spp
+/// path render 0.95 (5 paired runs each). Returns if the variable is set already (by the user,
+/// or by the first run) or exec fails.
+void run_with_huge_pages(char** argv) {
+    const char* tunables = std::getenv("GLIBC_TUNABLES");
+    if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
+    std::ifstream mode("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string line;
+    if (!std::getline(mode, line) || line.find("[madvise]") == std::string::npos) return;
+    std::string value = "glibc.malloc.hugetlb=1";
+    if (tunables && *tunables) value = std::string(tunables) + ":" + value;
+    if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+    execv("/proc/self/exe", argv);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
     using namespace fogmap;
+    run_with_huge_pages(argv);
     CLI::App app{"fogmap: volumetric photon mapping for OpenVDB smoke, fog and clouds"};
     app.require_subcommand(1);
     install_output_signal_handlers();    // temp outputs are removed on SIGINT/SIGTERM/SIGHUP

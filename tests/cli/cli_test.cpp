@@ -199,5 +199,22 @@ TEST_F(Cli, BadArgumentsExitWithTwo) {
     EXPECT_EQ(run("info " + (dir_ / "missing.vdb").string()).code, 2);
 }
 
+// fogmap starts itself again with glibc's huge pages (main.cpp, where the kernel gives them on
+// advice); a GLIBC_TUNABLES naming them already skips that. Both runs render the same image
+// from the same arguments (a medium, so the grids the pages serve are built).
+TEST_F(Cli, TheHugePageRestartKeepsTheArgumentsAndTheImage) {
+    const fs::path p = write("s.json", scene(R"(, "media": [{"type": "homogeneous",
+        "bounds": {"min": [-1, 0, -1], "max": [1, 1, 1]}, "sigma_s": 2, "sigma_a": 0.1}])"));
+    const std::string args = "render -q " + p.string() + " --spp 3 --seed 5 -o ";
+    const fs::path restarted = dir_ / "restarted.exr", direct = dir_ / "direct.exr";
+    const RunResult a = test::run_fogmap(args + restarted.string(), dir_, "env -u GLIBC_TUNABLES ");
+    ASSERT_EQ(a.code, 0) << a.err;
+    const RunResult b = test::run_fogmap(args + direct.string(), dir_,
+                                         "env GLIBC_TUNABLES=glibc.malloc.hugetlb=0 ");
+    ASSERT_EQ(b.code, 0) << b.err;
+    EXPECT_EQ(slurp(restarted), slurp(direct));
+    EXPECT_FALSE(slurp(restarted).empty());
+}
+
 }  // namespace
 }  // namespace fogmap
