@@ -88,7 +88,7 @@ Work work_units(const Report& r) {
     return w;
 }
 
-Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+Pilot pilot_share(const SceneDesc& desc) {
     const int width = desc.camera.width, height = desc.camera.height;
     const int tiles_x = (width + kTile - 1) / kTile,
               tiles = tiles_x * ((height + kTile - 1) / kTile);
@@ -101,6 +101,12 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
                                   std::max(1, tiles / kPilotMinTiles));
     while (pilot.tile_count > 1 && std::gcd(pilot.tile_count, tiles_x) != 1) --pilot.tile_count;
     pilot.spp = std::max(least_spp, desc.render.spp * pilot.tile_count / kPilotShare);
+    return pilot;
+}
+
+Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+    const int width = desc.camera.width, height = desc.camera.height;
+    Pilot pilot = pilot_share(desc);
     const double f = double(pilot.spp) / desc.render.spp;  // the pilot's share of the samples
     // Photon budgets and attempts scale with the samples, so that the map's variance stands to
     // the camera paths' as in the render, but not below 1/16 (pilot.h).
@@ -200,6 +206,18 @@ SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
         desc.render.auto_reason =
             "auto: media under sun, sky or area lights, and progressive iterations, which the "
             "photon integrator alone runs (no pilot)";
+        return desc;
+    }
+    const Pilot share = pilot_share(desc);
+    if (share.spp > kPilotMaxShare * desc.render.spp) {
+        desc.render.integrator = Integrator::Photon;
+        desc.render.auto_reason = "auto: media under sun, sky or area lights, and " +
+                                  std::to_string(desc.render.spp) + " spp, where a pilot (" +
+                                  std::to_string(share.spp) +
+                                  " spp) would cost more than the render: photon without one";
+        if (desc.volume.gather_depth > 0)
+            desc.render.auto_reason += " (camera paths ending in the volume map at vertex " +
+                                       std::to_string(desc.volume.gather_depth) + ")";
         return desc;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);

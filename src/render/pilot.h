@@ -47,6 +47,18 @@ struct Pilot {
     size_t best = 0;                         ///< the least score (the first of equal ones)
 };
 
+/// The tiles and samples per pixel of the pilot's images for `desc` (candidates and seeds
+/// empty).
+Pilot pilot_share(const SceneDesc& desc);
+
+/// A pilot of more than this share of the render's samples per pixel (render.spp below 16 at
+/// the pilot's 4) traces, in its four photon runs, at least the render's photons and costs
+/// more than the render it decides: on smoke1 and the Disney cloud over the ground (160x120,
+/// auto against the photon integrator, two seeds) the pilot took 2.0 / 2.4x the photon
+/// render's time at 4 spp, 1.1 / 1.1x at 8, 0.63 / 0.66x at 16, 0.31 / 0.36x at 32. Below
+/// it, pilot_auto picks the photon integrator without a pilot.
+inline constexpr double kPilotMaxShare = 0.25;
+
 /// Runs the pilot of `desc` (render.integrator auto, media under sun, sky or area lights:
 /// render.auto_media) on `scene`, loaded from it. Deterministic for a given description.
 /// `shared` (may be null): the tables the pilot's runs share, and leave to the render.
@@ -54,7 +66,8 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared 
 
 /// `desc` with the pilot's pick as its integrator and the measured reason appended to
 /// render.auto_reason; progressive runs keep the photon integrator (the others have no
-/// iterations) without a pilot. Any description without render.auto_media is returned unchanged.
+/// iterations) without a pilot, and so do renders of few samples (kPilotMaxShare). Any
+/// description without render.auto_media is returned unchanged.
 SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared = nullptr);
 
 }  // namespace fogmap

@@ -287,9 +287,12 @@ TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
     EXPECT_GT(std::stoi(split(lines[1], ',')[stored]), 0);
     EXPECT_EQ(split(lines[2], ',')[0], "path");
 
-    // Named, auto runs as `fogmap render` runs it: its pilot timed with it.
-    const RunResult a =
-        run("--reference-spp 4 --sweep render.integrator=auto,photon --path-spp none" + outputs());
+    // Named, auto runs as `fogmap render` runs it: its pilot timed with it (16 spp: with fewer
+    // there is no pilot, kPilotMaxShare).
+    const RunResult a = run(
+        "--reference-spp 4 --set render.spp=16 --sweep render.integrator=auto,photon --path-spp "
+        "none" +
+        outputs());
     ASSERT_EQ(a.code, 0) << a.err;
     const std::vector<std::string> rows = split(slurp(dir_ / "out" / "b.csv"), '\n');
     ASSERT_EQ(rows.size(), 4u);  // header, auto, photon, ""

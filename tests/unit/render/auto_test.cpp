@@ -107,6 +107,24 @@ TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
     EXPECT_EQ(pilot_auto(named, *load_scene(named)).render.integrator, Integrator::Photon);
 }
 
+// kPilotMaxShare: at 8 spp the pilot's 4 would be half the render's samples per pixel (its
+// photon runs tracing twice the render's photons): photon without a pilot, saying why; at 16
+// spp (a quarter) the pilot runs.
+TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
+    const SceneDesc few = small_smoke(8, 0.03f);  // thin: the pilot would pick path at 64 spp
+    EXPECT_GT(pilot_share(few).spp, kPilotMaxShare * few.render.spp);
+    const SceneDesc picked = pilot_auto(few, *load_scene(few));
+    EXPECT_EQ(picked.render.integrator, Integrator::Photon);
+    EXPECT_NE(picked.render.auto_reason.find("8 spp, where a pilot (4 spp) would cost more than "
+                                             "the render: photon without one"),
+              std::string::npos)
+        << picked.render.auto_reason;
+    const SceneDesc more = small_smoke(16, 0.03f);
+    EXPECT_EQ(pilot_share(more).spp, 4);
+    EXPECT_NE(pilot_auto(more, *load_scene(more)).render.auto_reason.find("a pilot (1 in"),
+              std::string::npos);
+}
+
 TEST(Pilot, TheSameNumbersForAnyThreadCount) {
     std::vector<Pilot> pilots;
     for (const int threads : {1, 2}) {
