@@ -205,24 +205,22 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
       phase_fits_(moment_grid_fits(media)),
       k_(k),
       max_tau_(max_tau) {
-    // Without moments the grid is for AdaptiveRadius's counts alone.
-    if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
-        return;
-    if (recycle) {
+    if (recycle) {  // given back whole by the destructor, whatever is built here
         slot_ = std::move(recycle->slot);
         moments_ = std::move(recycle->moments);
         counts_ = std::move(recycle->counts);
+        slot_.clear();  // empty until built: no moments, no counts
+        counts_.clear();
     }
+    // Without moments the grid is for AdaptiveRadius's counts alone.
+    if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
+        return;
     std::vector<size_t> scratch;
     std::vector<size_t>& nodes = recycle ? recycle->nodes : scratch;
     nodes.clear();
     for (size_t n = 0; n < density_.nodes(); ++n)
         if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
-    if (nodes.size() > kMaxMomentNodes) {  // no grid: the recycled vectors say none
-        slot_.clear();
-        counts_.clear();
-        return;
-    }
+    if (nodes.size() > kMaxMomentNodes) return;
     if (recycle) {
         reserve_recycled(&slot_, density_.nodes());
         reserve_recycled(&moments_, nodes.size());
