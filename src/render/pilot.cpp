@@ -76,6 +76,13 @@ private:
     size_t size_ = 0;
 };
 
+// What the Plan adds to a photon pick: where its camera paths end in the volume map, if they do.
+std::string map_end_words(const SceneDesc& desc) {
+    if (desc.volume.gather_depth <= 0) return "";
+    return " (camera paths ending in the volume map at vertex " +
+           std::to_string(desc.volume.gather_depth) + ")";
+}
+
 }  // namespace
 
 Work work_units(const Report& r) {
@@ -211,13 +218,10 @@ SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
     const Pilot share = pilot_share(desc);
     if (share.spp > kPilotMaxShare * desc.render.spp) {
         desc.render.integrator = Integrator::Photon;
-        desc.render.auto_reason = "auto: media under sun, sky or area lights, and " +
-                                  std::to_string(desc.render.spp) + " spp, where a pilot (" +
-                                  std::to_string(share.spp) +
-                                  " spp) would cost more than the render: photon without one";
-        if (desc.volume.gather_depth > 0)
-            desc.render.auto_reason += " (camera paths ending in the volume map at vertex " +
-                                       std::to_string(desc.volume.gather_depth) + ")";
+        desc.render.auto_reason =
+            "auto: media under sun, sky or area lights, and " + std::to_string(desc.render.spp) +
+            " spp, where a pilot (" + std::to_string(share.spp) +
+            " spp) would cost more than the render: photon without one" + map_end_words(desc);
         return desc;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);
@@ -239,9 +243,7 @@ SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
     desc.render.integrator = best.integrator;
     desc.render.auto_reason = "auto: media under sun, sky or area lights" + std::string(text) +
                               scores + " -> " + to_string(best.integrator);
-    if (best.integrator == Integrator::Photon && desc.volume.gather_depth > 0)
-        desc.render.auto_reason += " (camera paths ending in the volume map at vertex " +
-                                   std::to_string(desc.volume.gather_depth) + ")";
+    if (best.integrator == Integrator::Photon) desc.render.auto_reason += map_end_words(desc);
     return desc;
 }
 
