@@ -207,7 +207,8 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     return pilot;
 }
 
-SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
+SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared, bool* piloted) {
+    if (piloted) *piloted = false;
     if (!desc.render.auto_media) return desc;
     if (desc.progressive.enabled()) {
         desc.render.auto_reason =
@@ -225,6 +226,7 @@ SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared) {
         return desc;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);
+    if (piloted) *piloted = true;
     const PilotCandidate& best = pilot.candidates[pilot.best];
     std::string scores;
     for (const PilotCandidate& c : pilot.candidates) {

@@ -67,7 +67,9 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared 
 /// `desc` with the pilot's pick as its integrator and the measured reason appended to
 /// render.auto_reason; progressive runs keep the photon integrator (the others have no
 /// iterations) without a pilot, and so do renders of few samples (kPilotMaxShare). Any
-/// description without render.auto_media is returned unchanged.
-SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared = nullptr);
+/// description without render.auto_media is returned unchanged. `piloted` (may be null): set to
+/// whether a pilot ran.
+SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared = nullptr,
+                     bool* piloted = nullptr);
 
 }  // namespace fogmap

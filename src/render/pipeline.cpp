@@ -112,8 +112,9 @@ PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image
     SharedTables shared;           // the pilot's sun grids serve the render
     if (desc.render.auto_media) {  // the same choice on every rank: the pilot is deterministic
         const Timer pilot;
-        desc = pilot_auto(std::move(desc), *scene, &shared);
-        pilot_s = pilot.seconds();
+        bool piloted = false;  // a phase of its own only when it ran
+        desc = pilot_auto(std::move(desc), *scene, &shared, &piloted);
+        if (piloted) pilot_s = pilot.seconds();
     }
     RunOptions o;
     o.quiet = quiet;

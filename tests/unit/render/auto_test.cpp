@@ -113,7 +113,9 @@ TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
 TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     const SceneDesc few = small_smoke(8, 0.03f);  // thin: the pilot would pick path at 64 spp
     EXPECT_GT(pilot_share(few).spp, kPilotMaxShare * few.render.spp);
-    const SceneDesc picked = pilot_auto(few, *load_scene(few));
+    bool piloted = true;
+    const SceneDesc picked = pilot_auto(few, *load_scene(few), nullptr, &piloted);
+    EXPECT_FALSE(piloted);
     EXPECT_EQ(picked.render.integrator, Integrator::Photon);
     EXPECT_NE(picked.render.auto_reason.find("8 spp, where a pilot (4 spp) would cost more than "
                                              "the render: photon without one"),
@@ -121,8 +123,18 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
         << picked.render.auto_reason;
     const SceneDesc more = small_smoke(16, 0.03f);
     EXPECT_EQ(pilot_share(more).spp, 4);
-    EXPECT_NE(pilot_auto(more, *load_scene(more)).render.auto_reason.find("a pilot (1 in"),
+    EXPECT_NE(pilot_auto(more, *load_scene(more), nullptr, &piloted)
+                  .render.auto_reason.find("a pilot (1 in"),
               std::string::npos);
+    EXPECT_TRUE(piloted);
+    // The report times a pilot only where one ran.
+    const auto has_pilot_phase = [](const SceneDesc& desc) {
+        for (const auto& [name, s] : run_pipeline(desc, true).report.phases_s)
+            if (name == "pilot") return true;
+        return false;
+    };
+    EXPECT_FALSE(has_pilot_phase(few));
+    EXPECT_TRUE(has_pilot_phase(more));
 }
 
 TEST(Pilot, TheSameNumbersForAnyThreadCount) {
