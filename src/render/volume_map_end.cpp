@@ -279,8 +279,6 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
     if (crowded_anywhere_ && max_tau_ > 0.0f) {
         counts_.resize(moments_.size());
         for (size_t i = 0; i < moments_.size(); ++i) counts_[i] = moments_[i].count;
-    } else {
-        counts_.clear();
     }
 }
 

@@ -45,8 +45,11 @@ public:
     /// The grid for a ball of `radius` (world units, > 0; otherwise empty: at() is 0);
     /// `recycle` (may be null): build in its vectors' memory.
     KernelDensity(const std::vector<Medium>& media, float radius, Buffers* recycle = nullptr);
-    /// The grid's memory into `to` (this grid is empty afterwards).
-    void give_back(Buffers* to) { to->values = std::move(values_); }
+    /// The grid's memory into `to` (this grid is empty afterwards); a grid that returned before
+    /// building took nothing and leaves `to` as it is.
+    void give_back(Buffers* to) {
+        if (!values_.empty()) to->values = std::move(values_);
+    }
     /// σ̄_s at world point x, per channel (1/world unit); 0 beyond the grid.
     Color at(const Vec3& x) const;
 
