@@ -1,34 +1,29 @@
 #pragma once
-// The photon pass (DESIGN.md, Photons): photons leave the lights in streams (photon/streams.h)
-// that aim at what the maps need — the specular surfaces, the media, the ground around them, the
-// rest — and every photon of a stream in a map carries the same power; Russian roulette on
-// albedo decides survival at every interaction; free paths in media by ray marching (default) or
-// delta tracking. Storage: global map at diffuse hits after at least one interaction, caustic map
-// for L S+ D, volume map at scattering events after at least one interaction (the first
-// interaction from a light is left to shadow rays; emitting media's photons are stored from
-// their first). A pilot of every stream measures what each
-// deposits in each map and what it costs; the streams then emit in the proportions that minimise
-// the maps' summed relative variance per unit of work, each map's budget split into per-stream
-// quotas, until every quota is met or photons.max_emitted attempts have been made. A global map
-// still open when the volume map fills closes with it if its photons carry under a quarter of the
-// volume map's power (the light surfaces get only through the media: an open ground under smoke).
-// Where camera paths end in the volume map, the only map, it closes after
-// kVolumeAttemptsPerSample (0.25) attempts per camera sample, and at least its budget of attempts
-// (scene/plan.h, volume_attempts; a preview of a few samples keeps a usable map): the
-// map's share of the error falls as 1/photons and the camera's as 1/samples, so the photons that
-// balance the pass's cost against the render's grow in proportion to the samples. Calibrated on
-// smoke1 over a 10 km ground (64 spp): the rule leaves its relMSE × time as it was (0.35 attempts
-// per sample fill 100 000 photons; 0.00160 against 0.00159, 4 seeds), where the same smoke at a
-// tenth of its σ spent 2.4 million attempts and 83% of the render on 100 000 photons, 6.1× the
-// path tracer's relMSE × time; closed at 0.25 per sample, 1.4×.
+// The photon pass (docs/design.md, Photon emission and streams): fills the photon maps the Plan
+// turns on to their budgets. Photons leave the lights in streams (photon/streams.h), and every
+// photon of one stream in one map carries the same power; Russian roulette on albedo decides
+// survival at every interaction; free paths in media by ray marching (default) or delta tracking.
+// Storage: global map at diffuse hits after at least one interaction, caustic map for L S+ D,
+// volume map at scattering events after at least one interaction (the first interaction from a
+// light is left to shadow rays; emitting media's photons are stored from their first).
+// Allocation (PhotonPass): pilot rounds of every stream, then rounds whose stream proportions
+// (stream_proportions) are recomputed each round from what the streams have deposited so far.
+// Closing: a map closes when full; the pass stops at photons.max_emitted attempts; a global map
+// still open when the volume map fills closes with it if its photons carry under a quarter of
+// the volume map's power; where camera paths end in the volume map, the only map, it closes
+// after settings.volume_attempts (kVolumeAttemptsPerSample per camera sample, at least its
+// budget; scene/plan.h).
+// Why: the streams and their proportions minimise the maps' summed relative variance per unit
+// of work, and the closing rules keep a map nobody needs more of from driving the pass.
 // Deterministic: attempt i of a stream draws from Rng(seed, i, the stream's key) and chunks merge
-// in a fixed order, whatever the thread count.
+// in a fixed order, whatever the thread or rank count.
 // PhotonTracer, the per-photon part, is public so that `fogmap validate` traces its beams with
 // exactly this code.
 
 #include "media/ray_march.h"
 #include "photon/kd_tree.h"
 #include "photon/photon.h"
+#include "photon/photon_settings.h"
 #include "photon/streams.h"
 #include "scene/plan.h"
 #include "scene/scene.h"
@@ -82,12 +77,13 @@ struct PhotonPassResult {
 
 class Ranks;
 
-/// Runs the photon pass for the maps the plan turns on, with `settings`' budgets, free paths as
-/// `march` says (delta-tracked whatever it says with settings.volume_beams: a short beam takes
-/// its photon's presence for the transmittance, so free paths must be exact; photon_beams.h),
-/// and photon i drawing from Rng(seed, i, kPhotonStream). Progress on stderr
-/// unless quiet. With `ranks` (core/ranks.h) every rank calls it with the same arguments, each
-/// traces a share of the photons, and every rank returns the maps one process would build.
+/// Runs the photon pass (PhotonPass, below) for the maps the plan turns on, with `settings`'
+/// budgets, free paths as `march` says (delta-tracked whatever it says with settings.volume_beams:
+/// a short beam takes its photon's presence for the transmittance, so free paths must be exact;
+/// photon_beams.h), and attempt i of a stream drawing from Rng(seed, i, the stream's key).
+/// Progress on stderr unless quiet. With `ranks` (core/ranks.h) every rank calls it with the same
+/// arguments, each traces a share of the photons, and every rank returns the maps one process would
+/// build.
 PhotonPassResult trace_photons(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
                                const MarchSettings& march, uint64_t seed, bool quiet,
                                Ranks* ranks = nullptr);
@@ -158,6 +154,16 @@ public:
     const RayMarcher& marcher() const { return marcher_; }
 
 private:
+    struct Walk;  ///< one path's state (photon_pass.cpp)
+    enum class Collision { None, Scattered, Absorbed };
+    /// The segment ahead (up to t_max) through the media: no collision, a scattering (the
+    /// photon stored if the volume map takes it, and a new direction), or Russian roulette's end.
+    Collision cross_media(Walk& w, float t_max, int depth) const;
+    /// A surface interaction: stores the surface photons and reflects; false if absorbed.
+    bool leave_surface(Walk& w, const SurfaceHit& hit, int depth) const;
+    /// The part of the segment ahead on [0, end) within the media's bounds, as a beam.
+    void leave_beam(Walk& w, float end) const;
+
     const Scene& scene_;
     RayMarcher marcher_;
     Box3 media_bounds_;
@@ -166,6 +172,139 @@ private:
     std::array<bool, 3> store_{false, false, false};
     bool beams_ = false;
     const StreamSet* bounce_owner_ = nullptr;
+};
+
+/// The allocation rule: each stream's attempts in the next round relative to the largest (1),
+/// N_s ∝ √(Φ_s Σ_m P_ms / P_m² / c_s) over the open maps m with P_m = Σ_s P_ms > 0, and at least
+/// 5% of its share under plain emission (0.05 Φ_s / max_s Φ_s). power: Φ_s, the power of the
+/// region stream s samples; deposit: P_ms, the power it has put into map m per attempt; cost:
+/// c_s, its work per attempt. Why: a map's variance is about Σ_s (Φ_s / N_s) P_ms, and this
+/// minimises Σ_m Var_m / P_m² for the work Σ_s N_s c_s; the floor keeps sampling light the pilot
+/// saw little of.
+std::vector<double> stream_proportions(const std::vector<double>& power,
+                                       const std::vector<std::array<double, 3>>& deposit,
+                                       const std::array<bool, 3>& open,
+                                       const std::vector<double>& cost);
+
+/// A round's attempts per stream: ⌈batch × rate_s⌉, or, when those pass `left` (the last round
+/// under the cap), each scaled by left / their sum, rounded down (all `left` to stream 0 if that
+/// leaves none).
+std::vector<uint64_t> round_counts(const std::vector<double>& rate, uint64_t batch, uint64_t left);
+
+class Progress;
+
+/// One photon pass, as trace_photons runs it (docs/design.md, Photon emission and streams):
+/// construct with trace_photons' arguments, then run() once. Rounds of attempts of every stream
+/// are traced in parallel chunks and merged in a fixed order; a pilot of every stream comes
+/// first, then rounds in the allocation's proportions, until every map has closed or the cap is
+/// reached; then every photon is weighed Φ_s / (its stream's attempts behind its map).
+/// Why a class: the allocation and closing rules share the pass's counts, and each is a method.
+class PhotonPass {
+public:
+    PhotonPass(const Scene& scene, const Plan& plan, const PhotonSettings& settings,
+               const MarchSettings& march, uint64_t seed, bool quiet, Ranks* ranks);
+    PhotonPass(const PhotonPass&) = delete;
+    PhotonPass& operator=(const PhotonPass&) = delete;
+
+    /// Traces the pass and hands over its result (what trace_photons returns). Once.
+    PhotonPassResult run();
+
+private:
+    /// Per (stream, map): photons stored, their summed relative power, and, once the map has
+    /// closed, the stream's attempt count at which it stopped taking the stream's photons.
+    struct Pair {
+        uint64_t stored = 0;
+        double power = 0.0;
+        bool closed = false;
+        uint64_t stop_at = 0;
+    };
+    struct Job;       ///< a chunk of one stream's attempts
+    struct ChunkOut;  ///< what a chunk produced
+
+    // Set-up.
+    /// Allocates the maps the Plan turns on, with their budgets; false if all budgets are 0.
+    bool open_maps();
+    /// The streams, the total power and the tracer; false (with a warning) if no light emits.
+    bool make_streams_and_tracer();
+
+    // Allocation rules.
+    /// Pilot rounds of 256, 512, ... attempts of every stream, 8192 in all (less if the cap or
+    /// the budgets come first): what each stream deposits and costs, before any allocation.
+    void pilot();
+    /// Rounds of the allocation's proportions until every map has closed or the cap is reached.
+    void allocated_rounds(Progress& progress);
+    /// Power (W, channel average) stream s has put into map m per attempt behind the map.
+    double deposit_rate(size_t s, int m) const;
+    /// stream_proportions from every photon so far (recomputed each round).
+    std::vector<double> allocation() const;
+
+    // Closing rules.
+    /// The cap on attempts: photons.max_emitted (or 100 × the largest budget), or the volume
+    /// attempts rule's (the volume map alone, settings.volume_attempts) when that is lower.
+    void set_cap();
+    uint64_t attempts_left() const;  ///< under the cap
+    bool full(int m) const;          ///< map m holds its budget
+    bool any_open() const;
+    /// Closes map m at every stream's attempts so far (its photons weigh Φ_s over those).
+    void close_now(int m);
+    /// Closes map m at the attempt e of stream s whose path filled it (keeping that whole
+    /// path): for the streams merged before s at the end of this round (count), for those
+    /// after it at its start.
+    void close_at(int m, size_t s, uint64_t e, const std::vector<uint64_t>& count);
+    /// After the first round, which every map keeps whole (every stream must have attempts
+    /// behind every map): closes the maps it filled.
+    void close_full_after_first_round();
+    /// The global map closes with the volume map, when that one fills, if its photons carry
+    /// under a quarter of the volume map's power. Checked once.
+    void close_global_with_volume();
+    /// MPI shares: this rank traces every n_ranks-th chunk of each round (the chunks do not
+    /// depend on the rank count), and all ranks exchange them before the merge.
+    bool mine(size_t chunk) const;
+    void exchange(size_t n_jobs, std::vector<ChunkOut>* out);
+
+    // A round.
+    /// Traces count[s] more attempts of every stream and merges them (closing maps as they fill).
+    void emit(const std::vector<uint64_t>& count);
+    /// An attempt of stream s: the photon's ray, power and source; false if it yields none.
+    bool start_photon(int s, std::vector<Medium::Sampler>& samplers, Rng& rng, Ray* ray,
+                      Color* power, PhotonSource* source) const;
+    void trace_chunk(const Job& job, std::vector<Medium::Sampler>& samplers, ChunkOut* o) const;
+    /// Adds a chunk's photons to the maps still taking them and its counts to the report.
+    void merge(const Job& job, const ChunkOut& o, bool first, const std::vector<uint64_t>& count);
+
+    // Weights and the report.
+    uint64_t total_attempts() const;
+    /// Attempts behind pair (s, m)'s photons: all of the stream's, or those before m closed.
+    double behind(size_t s, int m) const;
+    /// A photon of stream s in map m carries Φ_s / behind(s, m); the map's photon power is the
+    /// largest and each record's relative power is rescaled to it. Notes why a map is short.
+    void weigh_map(int m);
+    /// Streams' attempts, and the power photons.max_bounces cut (with a warning above 0.1%).
+    void report_streams();
+
+    const Scene& scene_;
+    const Plan& plan_;
+    const PhotonSettings& settings_;
+    const MarchSettings& march_;
+    const uint64_t seed_;
+    const bool quiet_;
+    Ranks* const ranks_;
+    const size_t n_ranks_, my_rank_;
+
+    PhotonPassResult result_;
+    std::array<StoredPhotons*, 3> maps_{nullptr, nullptr, nullptr};  ///< into result_
+    uint64_t largest_ = 0;                                           ///< the largest budget
+    StreamSet set_;
+    size_t n_streams_ = 0;
+    std::optional<PhotonTracer> tracer_;
+    std::array<bool, 3> open_{false, false, false};  ///< maps still taking photons
+    std::vector<uint64_t> attempts_, interactions_;  ///< per stream
+    std::vector<std::array<Pair, 3>> pairs_;
+    std::array<std::vector<uint16_t>, 3> photon_stream_;  ///< each stored photon's stream
+    std::vector<uint16_t> beam_stream_;                   ///< each stored beam's stream
+    uint64_t cap_ = 0;
+    bool volume_rule_ = false;  ///< the volume attempts rule set the cap
+    bool global_checked_ = false;
 };
 
 /// A built map: its kd-tree and the world power of a photon whose relative power is 1.

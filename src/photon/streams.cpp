@@ -130,8 +130,11 @@ bool meets_sphere(const Ray& ray, const Vec3& center, float radius) {
     return along > 0.0 && glm::dot(perp, perp) < r2;
 }
 
-StreamSet make_streams(const Scene& scene, bool specular, bool media) {
-    StreamSet set;
+namespace {
+
+/// The targets (streams.h): the specular surfaces' sphere when `specular`, the media's and the
+/// "near media" sphere around it when `media`. Returns the media target's index (-1: none).
+int add_targets(const Scene& scene, bool specular, bool media, StreamSet* set) {
     if (specular && scene.surfaces) {
         Box3 b;
         for (const Mesh& m : scene.surfaces->meshes())
@@ -142,87 +145,90 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
                 b.extend(s.center - Vec3(s.radius));
                 b.extend(s.center + Vec3(s.radius));
             }
-        if (!b.empty()) set.targets.push_back(sphere_of(b, "specular"));
+        if (!b.empty()) set->targets.push_back(sphere_of(b, "specular"));
     }
-    int media_target = -1;
-    if (media) {
-        Box3 b;
-        for (const Medium& m : scene.media) b.extend(m.world_bounds());
-        if (!b.empty()) {
-            media_target = static_cast<int>(set.targets.size());
-            set.targets.push_back(sphere_of(b, "media"));
-            StreamTarget near = set.targets.back();
-            near.radius *= kNearFactor;
-            near.name = "near media";
-            set.targets.push_back(near);
-        }
+    if (!media) return -1;
+    Box3 b;
+    for (const Medium& m : scene.media) b.extend(m.world_bounds());
+    if (b.empty()) return -1;
+    const int media_target = static_cast<int>(set->targets.size());
+    set->targets.push_back(sphere_of(b, "media"));
+    StreamTarget near = set->targets.back();
+    near.radius *= kNearFactor;
+    near.name = "near media";
+    set->targets.push_back(near);
+    return media_target;
+}
+
+/// The streams of light `li` (one per target its paths can meet first, then the rest; a quad
+/// light's one), none when it has no power. `world`: the scene's bounding sphere.
+void add_light_streams(const Scene& scene, size_t li, const StreamTarget& world, StreamSet* set) {
+    const Light& l = scene.lights[li];
+    const Color power = light_power(l, scene.bounds);
+    const double avg = average(power);
+    if (!(avg > 0.0)) return;
+    const std::string light_name = std::string(to_string(l.type)) + " " + std::to_string(li);
+    auto add = [&](int target, double region_power) {
+        PhotonStream s;
+        s.light = static_cast<int>(li);
+        s.target = target;
+        s.region_power = region_power;
+        s.color = power / static_cast<float>(avg);
+        s.key = mix64(0x5354524541ull + li * 0x100 + static_cast<uint64_t>(target + 1));
+        s.name = light_name + " → " + (target < 0 ? "rest" : set->targets[target].name);
+        set->streams.push_back(s);
+    };
+    if (l.type == LightType::Quad) {  // one stream: its paths are not partitioned
+        add(-1, avg);
+        return;
     }
-    const StreamTarget world = sphere_of(scene.bounds, "scene");
-    for (size_t li = 0; li < scene.lights.size(); ++li) {
-        const Light& l = scene.lights[li];
-        const Color power = light_power(l, scene.bounds);
-        const double avg = average(power);
-        if (!(avg > 0.0)) continue;
-        const std::string light_name = std::string(to_string(l.type)) + " " + std::to_string(li);
-        auto add = [&](int target, double region_power) {
-            PhotonStream s;
-            s.light = static_cast<int>(li);
-            s.target = target;
-            s.region_power = region_power;
-            s.color = power / static_cast<float>(avg);
-            s.key = mix64(0x5354524541ull + li * 0x100 + static_cast<uint64_t>(target + 1));
-            s.name = light_name + " → " + (target < 0 ? "rest" : set.targets[target].name);
-            set.streams.push_back(s);
-        };
-        if (l.type == LightType::Quad) {  // one stream: its paths are not partitioned
-            add(-1, avg);
+    // Power of the light through the region a stream samples: a disc of radius r across the
+    // light's direction (sun: E π r²; sky: L 4π · π r²), or a cone of solid angle Ω from the
+    // light (I Ω), the spot's cone at most.
+    auto disc_power = [&](float r) {
+        const double area = kPi * double(r) * r;
+        return l.type == LightType::Sun ? average(l.irradiance) * area
+                                        : average(l.radiance) * 4.0 * kPi * area;
+    };
+    const bool spot = l.type == LightType::Spot;
+    const float whole = spot ? l.cos_outer : -1.0f;  // the cone all of the light's paths fill
+    auto cone_power = [&](float cos_max) {
+        return average(l.intensity) * kTwoPi * (1.0 - double(cos_max));
+    };
+    const std::vector<StreamTarget>& targets = set->targets;
+    bool covered = false;  // every path of this light already belongs to a target stream
+    for (size_t k = 0; k < targets.size() && !covered; ++k) {
+        const StreamTarget& t = targets[k];
+        bool within_earlier = false;
+        for (size_t j = 0; j < k; ++j) within_earlier |= sphere_within(t, targets[j]);
+        if (within_earlier) continue;
+        if (is_infinite(l)) {
+            add(static_cast<int>(k), disc_power(t.radius));
             continue;
         }
-        // Power of the light through the region a stream samples: a disc of radius r across the
-        // light's direction (sun: E π r²; sky: L 4π · π r²), or a cone of solid angle Ω from the
-        // light (I Ω), the spot's cone at most.
-        auto disc_power = [&](float r) {
-            const double area = kPi * double(r) * r;
-            return l.type == LightType::Sun ? average(l.irradiance) * area
-                                            : average(l.radiance) * 4.0 * kPi * area;
-        };
-        const bool spot = l.type == LightType::Spot;
-        const float whole = spot ? l.cos_outer : -1.0f;  // the cone all of the light's paths fill
-        auto cone_power = [&](float cos_max) {
-            return average(l.intensity) * kTwoPi * (1.0 - double(cos_max));
-        };
-        bool covered = false;  // every path of this light already belongs to a target stream
-        for (size_t k = 0; k < set.targets.size() && !covered; ++k) {
-            const StreamTarget& t = set.targets[k];
-            bool within_earlier = false;
-            for (size_t j = 0; j < k; ++j) within_earlier |= sphere_within(t, set.targets[j]);
-            if (within_earlier) continue;
-            if (is_infinite(l)) {
-                add(static_cast<int>(k), disc_power(t.radius));
-                continue;
-            }
-            bool in_earlier = false;
-            for (size_t j = 0; j < k; ++j) in_earlier |= inside(l.position, set.targets[j]);
-            if (in_earlier) break;
-            if (inside(l.position, t)) {
-                add(static_cast<int>(k), cone_power(whole));
-                covered = true;
-                continue;
-            }
-            if (spot) {  // a target cone outside the spot's cone receives nothing
-                const Vec3 to = glm::normalize(t.center - l.position);
-                const float angle = std::acos(std::clamp(glm::dot(to, l.direction), -1.0f, 1.0f));
-                if (angle - std::acos(cone_cos(l.position, t)) > std::acos(l.cos_outer)) continue;
-            }
-            add(static_cast<int>(k), cone_power(cone_cos(l.position, t)));
+        bool in_earlier = false;
+        for (size_t j = 0; j < k; ++j) in_earlier |= inside(l.position, targets[j]);
+        if (in_earlier) break;
+        if (inside(l.position, t)) {
+            add(static_cast<int>(k), cone_power(whole));
+            covered = true;
+            continue;
         }
-        bool in_any = false;
-        for (const StreamTarget& t : set.targets)
-            in_any |= !is_infinite(l) && inside(l.position, t);
-        if (covered || in_any) continue;
-        add(-1, is_infinite(l) ? disc_power(world.radius) : cone_power(whole));
+        if (spot) {  // a target cone outside the spot's cone receives nothing
+            const Vec3 to = glm::normalize(t.center - l.position);
+            const float angle = std::acos(std::clamp(glm::dot(to, l.direction), -1.0f, 1.0f));
+            if (angle - std::acos(cone_cos(l.position, t)) > std::acos(l.cos_outer)) continue;
+        }
+        add(static_cast<int>(k), cone_power(cone_cos(l.position, t)));
     }
-    add_bounce_stream(scene, media_target, &set);
+    bool in_any = false;
+    for (const StreamTarget& t : targets) in_any |= !is_infinite(l) && inside(l.position, t);
+    if (covered || in_any) return;
+    add(-1, is_infinite(l) ? disc_power(world.radius) : cone_power(whole));
+}
+
+/// One stream per emitting medium (streams.h), after the lights' and the bounce stream.
+void add_emission_streams(const Scene& scene, StreamSet* set) {
     for (size_t i = 0; i < scene.media.size(); ++i) {
         const double power = scene.media[i].emission_bound_power();
         if (!(power > 0.0)) continue;
@@ -232,8 +238,19 @@ StreamSet make_streams(const Scene& scene, bool specular, bool media) {
         s.region_power = power;
         s.key = mix64(0x454d4954ull * 0x100 + i);
         s.name = "medium " + std::to_string(i) + " emission";
-        set.streams.push_back(s);
+        set->streams.push_back(s);
     }
+}
+
+}  // namespace
+
+StreamSet make_streams(const Scene& scene, bool specular, bool media) {
+    StreamSet set;
+    const int media_target = add_targets(scene, specular, media, &set);
+    const StreamTarget world = sphere_of(scene.bounds, "scene");
+    for (size_t li = 0; li < scene.lights.size(); ++li) add_light_streams(scene, li, world, &set);
+    add_bounce_stream(scene, media_target, &set);
+    add_emission_streams(scene, &set);
     return set;
 }
 

@@ -1,10 +1,10 @@
 #pragma once
-// Photon streams (DESIGN.md, Next: photon streams): the light paths of every light are partitioned
-// by where their first segment goes. Targets are bounding spheres, in order: the specular
-// surfaces (caustics), the media, and the ground around the media (the "near" sphere, three times
-// the media's radius: where light bounces into them). Stream (light, k) holds the paths whose
-// first segment meets target k and no earlier target; the last stream of a light, the rest, holds
-// those that meet none. Every path belongs to exactly one stream, so the sum over streams is
+// Photon streams (docs/design.md, Photon emission and streams): the light paths of every light
+// are partitioned by where their first segment goes. Targets are bounding spheres, in order: the
+// specular surfaces (caustics), the media, and the ground around the media (the "near" sphere,
+// three times the media's radius: where light bounces into them). Stream (light, k) holds the paths
+// whose first segment meets target k and no earlier target; the last stream of a light, the rest,
+// holds those that meet none. Every path belongs to exactly one stream, so the sum over streams is
 // unbiased whatever each stream's photon count; within a stream every photon carries the same
 // power, (power of the region it samples) / (its attempts).
 // A stream samples its region directly — sun and sky: origins on the target's disc across the
@@ -22,6 +22,8 @@
 // everything else (and all of a point, spot or quad light's paths, whose light falls near them).
 // Each emitting medium has one stream more, not partitioned: photons leave points drawn ∝ its
 // σ_a L_e (Medium::Sampler::sample_emission) in uniform directions.
+// Why: a stream aimed at a small target (the media, a glass ball) gets photons there without
+// tracing the light's other paths, and the photon pass can give each stream its own count.
 // Immutable after make_streams; thread-safe.
 
 #include "core/rng.h"
