@@ -14,7 +14,7 @@
 
 namespace fogmap::bench {
 
-/// The two real grids of issue 4's photon-trace benchmark.
+/// The two real grids of the photon-trace benchmark (photon_trace_bench.cpp).
 inline constexpr const char* kSmokeVdb = "smoke1.vdb";
 inline constexpr const char* kCloudVdb = "wdas_cloud_sixteenth.vdb";
 

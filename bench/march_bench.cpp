@@ -1,6 +1,6 @@
 // Trilinear density samples while marching through real grids (smoke1.vdb, the Disney cloud at
 // 1/16): the same sample points through
-//   dense        a dense float array copy of the grid (this file's own; issue 4's baseline,
+//   dense        a dense float array copy of the grid (this file's own; the baseline,
 //                target: fogmap at most 1.5x its cost),
 //   fogmap       DensityGrid::Sampler (inline; per 8^3 cell one value or a 9^3 brick, built at
 //                load: one table lookup plus 8 loads per sample),

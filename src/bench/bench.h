@@ -1,5 +1,5 @@
 #pragma once
-// Pipeline sweeps for `fogmap bench` (DESIGN.md, Error against run time): the cross product of
+// Pipeline sweeps for `fogmap bench` (docs/measurements.md): the cross product of
 // swept settings, one timed and error-measured run per combination, CSV rows, the Pareto
 // frontier of (time, error) and the text summary. Times are wall seconds, medians over repeats.
 // Pure functions apart from run_bench_case, which renders; nothing here writes files.

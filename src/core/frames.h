@@ -1,8 +1,7 @@
 #pragma once
-// Frame sequences (README, "Sequences"): a frame range "first-last[:step]" and the frame patterns
-// of file names — `####` (Houdini and Blender: zero-padded to the number of #), `$F4` / `$F`
-// (Houdini: padded to 4 digits / not padded) and `%04d` / `%d` (printf). Pure string functions;
-// thread-safe.
+// Frame sequences: a frame range "first-last[:step]" and the frame patterns of file names — `####`
+// (Houdini and Blender: zero-padded to the number of #), `$F4` / `$F` (Houdini: padded to 4
+// digits / not padded) and `%04d` / `%d` (printf). Pure string functions; thread-safe.
 
 #include <string>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// Output files are written whole and together (DESIGN.md, Conventions). OutputFiles stages each
+// Output files are written whole and together (docs/contributing.md). OutputFiles stages each
 // file of a run as "<path>.tmp-<pid>" beside its target and renames the temps over their targets
 // only after every one was written completely (each write, the fsync and the close checked), so a
 // failed run leaves no half file and destroys no older one. Staged temps sit in a process-wide

@@ -1,8 +1,8 @@
 #pragma once
-// The one thread limit of a run: a ThreadLimit caps every TBB parallel loop started while it
-// lives (tbb::global_control), so the photon pass, the kd-tree builds and the render pass all
-// run on the same number of workers. Results never depend on it (DESIGN.md: deterministic per
-// seed). Construct one per run, on the thread that starts the work.
+// The one thread limit of a run: a ThreadLimit caps every TBB parallel loop started while it lives
+// (tbb::global_control), so the photon pass, the kd-tree builds and the render pass all run on the
+// same number of workers. Results never depend on it (docs/design.md, Determinism). Construct one
+// per run, on the thread that starts the work.
 
 #include <tbb/global_control.h>
 #include <tbb/info.h>

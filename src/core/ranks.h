@@ -1,5 +1,5 @@
 #pragma once
-// The processes one run is spread over (DESIGN.md, Ranks): MPI ranks under mpirun
+// The processes one run is spread over (docs/design.md, Pipeline): MPI ranks under mpirun
 // (app/mpi_ranks.cpp), or none. The pipeline asks only for these collective operations, so MPI's
 // headers stay in app/. Every rank must call each operation in the same order.
 

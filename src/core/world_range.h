@@ -1,10 +1,10 @@
 #pragma once
-// The range of world-space quantities fogmap accepts (DESIGN.md, Numerical stability). Every
-// transform, grid index→world map and resulting bound that reaches Embree or the renderer is
-// checked at load: finite, non-singular, and within ±kMaxWorldCoordinate world units. The range
-// keeps float rays valid for Embree (it asserts |origin| < 1.8e18; sun photons start outside the
-// scene's bounding sphere) and leaves float precision for ray offsets; DESIGN.md's voxel sizes
-// (1e-4 .. 1e4) fit inside it. Header-only, allocation-free but for messages, thread-safe.
+// The range of world-space quantities fogmap accepts. Every transform, grid index→world map and
+// resulting bound that reaches Embree or the renderer is checked at load: finite, non-singular, and
+// within ±kMaxWorldCoordinate world units. The range keeps float rays valid for Embree (it asserts
+// |origin| < 1.8e18; sun photons start outside the scene's bounding sphere) and leaves float
+// precision for ray offsets; voxel sizes of 1e-4 .. 1e4 fit inside it. Header-only, allocation-free
+// but for messages, thread-safe.
 
 #include "core/math.h"
 

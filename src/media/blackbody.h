@@ -1,10 +1,10 @@
 #pragma once
-// Black-body emission (DESIGN.md, Emission): Planck's law, integrated against the CIE 1931 2°
-// observer and converted to linear Rec.709. fogmap's normalisation (README, "Fire"): a voxel at
-// T kelvin emits radiance whose luminance is 1e-6 × σT⁴/π — the whole spectrum's radiance in
-// W/(mm²·sr), Blender Cycles' convention for blackbody volumes, so Houdini and Blender caches
-// render as bright as there — with the colour of Planck's spectrum in the visible: 1000 K gives
-// luminance 0.018 (deep red), 1500 K 0.091, 6500 K 32 (white). Pure functions; thread-safe.
+// Black-body emission (docs/design.md, Emission): Planck's law, integrated against the CIE 1931 2°
+// observer and converted to linear Rec.709. fogmap's normalisation: a voxel at T kelvin emits
+// radiance whose luminance is 1e-6 × σT⁴/π — the whole spectrum's radiance in W/(mm²·sr), Blender
+// Cycles' convention for blackbody volumes, so Houdini and Blender caches render as bright as there
+// — with the colour of Planck's spectrum in the visible: 1000 K gives luminance 0.018 (deep red),
+// 1500 K 0.091, 6500 K 32 (white). Pure functions; thread-safe.
 
 #include "core/math.h"
 

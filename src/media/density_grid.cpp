@@ -55,8 +55,8 @@ void visit_nodes(FloatTree& tree, LeafFn&& leaf_fn, TileFn&& tile_fn) {
     }
 }
 
-/// The load-time rule of DESIGN.md (Media) and STYLE.md (Errors): NaN, ±Inf, negative and
-/// denormal values become 0; `count` voxels carry this value (a tile covers many).
+/// The load-time rule for bad voxel values (docs/design.md, Density between voxels): NaN, ±Inf,
+/// negative and denormal values become 0; `count` voxels carry this value (a tile covers many).
 void sanitize_value(float& v, uint64_t count, SanitizeStats* stats) {
     if (std::isnan(v)) {
         stats->nan += count;

@@ -6,9 +6,10 @@
 // are set to 0 and denormals flushed to 0 at load; the counts are kept in SanitizeStats.
 // A coarse majorant grid (cells of kMajorantCell^3 voxels) bounds every trilinear sample inside
 // each cell, for delta/ratio tracking and empty-space skipping.
-// For sampling, load() copies each majorant cell's 9^3 footprint out of the tree (issue 4: a
-// sample costs about a dense array's): a cell holding one value (empty space, tile interiors)
-// keeps that value, any other owns a brick of the 9^3 values; the OpenVDB tree is then freed.
+// For sampling, load() copies each majorant cell's 9^3 footprint out of the tree, so that a sample
+// costs about a dense array's (bench/march_bench.cpp): a cell holding one value (empty space, tile
+// interiors) keeps that value, any other owns a brick of the 9^3 values; the OpenVDB tree is then
+// freed.
 // Thread-safety: a DensityGrid is immutable after load and shared const. A Sampler holds only
 // views of it (no cache), so density() is thread-safe; making one per thread/task stays the rule.
 // OpenVDB headers stay in density_grid.cpp.

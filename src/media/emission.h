@@ -1,5 +1,5 @@
 #pragma once
-// What an emissive medium radiates (DESIGN.md, Emission): L_e(x), entering the RTE as
+// What an emissive medium radiates (docs/design.md, Emission): L_e(x), entering the RTE as
 // σ_a(x)·L_e(x). Constant (one colour), or from a grid of its own (its own active region and
 // transform, sampled trilinearly like density): scalar (L_e = value · colour · scale) or blackbody
 // (T = value · temperature_scale + temperature_offset kelvin, L_e = blackbody_radiance(T) ·

@@ -1,8 +1,8 @@
 #pragma once
-// Henyey–Greenstein phase function (DESIGN.md, Media): p(cos θ) = (1−g²) / (4π (1+g²−2g cos
-// θ)^{3/2}), θ the angle between the incoming travel direction and the outgoing one (g > 0:
-// forward). Sampling inverts the CDF in a form without division by g and without cancellation near
-// the peak (detail::hg_sample_one_minus_cos), in double: exact and finite for g = 0, g = 1e-7 and
+// Henyey–Greenstein phase function: p(cos θ) = (1−g²) / (4π (1+g²−2g cos θ)^{3/2}), θ the angle
+// between the incoming travel direction and the outgoing one (g > 0: forward). Sampling inverts the
+// CDF in a form without division by g and without cancellation near the peak
+// (detail::hg_sample_one_minus_cos), in double: exact and finite for g = 0, g = 1e-7 and
 // |g| = 0.999. Header-only, thread-safe.
 
 #include "core/math.h"

@@ -4,10 +4,9 @@
 // medium's world bounds, each column a running sum of the density from the light's side (the
 // density at each step's midpoint: one lookup per node). depth(x) interpolates it trilinearly:
 // ∫ density ds from x towards the light, so the transmittance of medium m is exp(−σ_t,m · depth).
-// Its error is the interpolation's between columns, h² τ''/8 (0.3% of the largest depth of a
-// smooth puff at a spacing of one voxel; two Gauss–Legendre points per step instead of the
-// midpoint gave the same). The photon integrator's camera paths take the sun's shadow rays from
-// it (render/sun_shadows.h): a ratio-tracked shadow ray walks the plume, this is eight loads.
+// Its error is the interpolation's between columns, h² τ''/8 (docs/why.md). The photon
+// integrator's camera paths take the sun's shadow rays from it (render/sun_shadows.h): a
+// ratio-tracked shadow ray walks the plume, this is eight loads.
 // Thread-safety: immutable after construction; depth() is safe from any thread.
 
 #include "core/math.h"

@@ -6,8 +6,8 @@ namespace fogmap {
 
 enum class FreePathMethod { March, Delta };
 
-/// Ray marching of density grids (DESIGN.md, Photons): used for photon free paths (unless
-/// method = delta) and for camera rays of the photon integrator.
+/// Ray marching of density grids: used for photon free paths (unless method = delta) and for camera
+/// rays of the photon integrator.
 struct MarchSettings {
     FreePathMethod method = FreePathMethod::March;
     float step_voxels = 1.0f;  ///< step through grids, in voxels (smallest voxel edge), > 0

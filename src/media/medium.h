@@ -1,7 +1,7 @@
 #pragma once
-// Participating media: σ_s(x) = density(x)·sigma_s, σ_a(x) = density(x)·sigma_a (DESIGN.md, Media),
-// homogeneous (density 1 inside a world box) or heterogeneous (a DensityGrid under the grid's own
-// transform times the scene transform). Free paths are found by weighted delta tracking against
+// Participating media: σ_s(x) = density(x)·sigma_s, σ_a(x) = density(x)·sigma_a, homogeneous
+// (density 1 inside a world box) or heterogeneous (a DensityGrid under the grid's own transform
+// times the scene transform). Free paths are found by weighted delta tracking against
 // piecewise-constant majorants (one per majorant cell, walked by a 3D DDA; empty cells are skipped)
 // and transmittance by residual ratio tracking (Novák, Selle & Jarosz 2014) against each cell's
 // minimum density as control: exp(−σ_t ∫ d_min) exactly, times ratio tracking of what lies above

@@ -1,14 +1,14 @@
 #pragma once
-// Ray marching through superposed media (DESIGN.md, Photons): the ray is cut where it enters and
-// leaves each medium's bounds; pieces with no medium are skipped; within a piece the step is the
-// smallest of the media present (grids: step_voxels × smallest voxel edge; homogeneous media:
-// step_world, default diagonal/128), and σ is sampled once per step at a jittered point and held
-// constant over the step. Free paths accumulate optical depth until it reaches −ln ξ and then
-// interpolate within the step. Chromatic media: the free path follows the channel average and the
-// photon is reweighted per channel (exactly 1 for grey media).
-// Stiff media (DESIGN.md, Numerical stability): in a medium whose max σ_t × step exceeds
-// kMaxTauPerStep, free paths are delta-tracked from where the ray enters it, and marched on with
-// steps of optical depth <= kMaxTauPerStep after 128 null collisions; march() keeps its steps.
+// Ray marching through superposed media: the ray is cut where it enters and leaves each medium's
+// bounds; pieces with no medium are skipped; within a piece the step is the smallest of the media
+// present (grids: step_voxels × smallest voxel edge; homogeneous media: step_world, default
+// diagonal/128), and σ is sampled once per step at a jittered point and held constant over the
+// step. Free paths accumulate optical depth until it reaches −ln ξ and then interpolate within the
+// step. Chromatic media: the free path follows the channel average and the photon is reweighted per
+// channel (exactly 1 for grey media).
+// Stiff media: in a medium whose max σ_t × step exceeds kMaxTauPerStep, free paths are
+// delta-tracked from where the ray enters it, and marched on with steps of optical depth <=
+// kMaxTauPerStep after 128 null collisions; march() keeps its steps.
 // Thread-safety: a RayMarcher is immutable; samplers are per thread.
 
 #include "core/rng.h"
@@ -64,11 +64,11 @@ public:
         Color weight{1.0f};  ///< per-channel reweighting of the photon (1 for grey media)
         Color sigma_s{0.0f}, sigma_t{0.0f};  ///< at the collision
     };
-    /// Samples a free path on (0, t_max) by marching (DESIGN.md: optical depth to −ln ξ); from
-    /// where the ray enters a stiff medium on, by delta tracking through all media (the rest of
-    /// the free path is independent of the part marched, so joining the two is exact). A
-    /// collision found by delta tracking reports the σ_s, σ_t of the medium that collided.
-    /// A ray that meets no medium's bounds draws nothing from rng.
+    /// Samples a free path on (0, t_max) by marching (optical depth to −ln ξ); from where the ray
+    /// enters a stiff medium on, by delta tracking through all media (the rest of the free path is
+    /// independent of the part marched, so joining the two is exact). A collision found by delta
+    /// tracking reports the σ_s, σ_t of the medium that collided. A ray that meets no medium's
+    /// bounds draws nothing from rng.
     FreePath sample_free_path(std::vector<Medium::Sampler>& samplers, const Ray& ray, float t_max,
                               Rng& rng) const;
 
@@ -82,9 +82,9 @@ public:
 
     static constexpr int kMaxStepsPerPiece = 100000;
     /// Largest majorant optical depth per step that is marched. Holding σ constant over a step
-    /// errs most where the density jumps within one step (a medium's boundary voxels): in a
-    /// semi-infinite slab (albedo 0.9, isotropic) the marched Rd is 0.3% high at 0.25 per step,
-    /// 1% at 0.5, 3% at 1 and 8% at 2 (`fogmap validate slab --voxels`), so 0.25.
+    /// errs most where the density jumps within one step (a medium's boundary voxels); at 0.25
+    /// a semi-infinite slab's marched Rd stays within 0.3% (`fogmap validate slab --voxels`;
+    /// docs/why.md).
     static constexpr float kMaxTauPerStep = 0.25f;
 
 private:

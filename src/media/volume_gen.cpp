@@ -26,11 +26,11 @@ void init_openvdb() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-/// Writes `grid` to "<path>.tmp-<pid>", then renames it over `path` (STYLE.md: outputs go to a
-/// temp file, then rename; core/output_files.h). OpenVDB writes through a std::ofstream whose
-/// failures it may not report, so the temp is renamed only after its header and grid descriptors
-/// were read back and found complete (check_vdb_file). Active-mask + Blosc (or zip) compression
-/// keeps files small.
+/// Writes `grid` to "<path>.tmp-<pid>", then renames it over `path` (docs/contributing.md: outputs
+/// go to a temp file, then rename; core/output_files.h). OpenVDB writes through a std::ofstream
+/// whose failures it may not report, so the temp is renamed only after its header and grid
+/// descriptors were read back and found complete (check_vdb_file). Active-mask + Blosc (or zip)
+/// compression keeps files small.
 void write_grids_atomic(const openvdb::GridPtrVec& grids, const std::string& path) {
     init_openvdb();
     OutputFiles out;

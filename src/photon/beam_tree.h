@@ -39,8 +39,8 @@ public:
     /// (clamped into the part of the segment within the sphere), kernel = the uniform kernel
     /// 3 / (4π r³) integrated over that part, in 1/area: K(d) = norm · sqrt(r² − d²) for a chord
     /// the segment holds whole. Clipping matters where a segment starts inside the medium (a
-    /// camera in fog) or ends there (at a surface): whole chords there counted the photons behind
-    /// the camera too (an albedo-1 furnace seen from inside came out 46% too bright).
+    /// camera in fog) or ends there (at a surface): whole chords there would count the photons
+    /// behind the camera too (docs/why.md).
     template <class F>
     void for_each_hit(const Ray& ray, float t0, float t1, F&& f) const;
 

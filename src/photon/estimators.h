@@ -1,5 +1,5 @@
 #pragma once
-// Radiance estimates from photon maps (DESIGN.md, Radiance estimates). Surface: disc estimate
+// Radiance estimates from photon maps (docs/design.md, Radiance estimates). Surface: disc estimate
 // over the k nearest photons (or all within r_max), r = distance to the k-th photon or r_max,
 // optional cone filter (Jensen, normalised by 1 − 2/(3 k_f)); when r is the k-th photon's
 // distance that photon is left out ((k−1)/V, the unbiased k-NN density estimate). k <= 0: every

@@ -1,9 +1,9 @@
 #pragma once
-// KdTree<Record>: a balanced kd-tree over records stored in one array without pointers
-// (DESIGN.md, Kd-trees). Contract on Record: `Vec3 position() const`, `int axis() const` and
-// `void set_axis(int)` (a 2-bit slot); enforced by a static_assert. Built once (parallel), then
-// queried const from any number of threads. Queries: k nearest within a max radius (bounded
-// max-heap, pruning by the current k-th distance), and all records within a radius.
+// KdTree<Record>: a balanced kd-tree over records stored in one array without pointers. Contract on
+// Record: `Vec3 position() const`, `int axis() const` and `void set_axis(int)` (a 2-bit slot);
+// enforced by a static_assert. Built once (parallel), then queried const from any number of
+// threads. Queries: k nearest within a max radius (bounded max-heap, pruning by the current k-th
+// distance), and all records within a radius.
 // Layout (Hooley): a range [lo, hi) of more than 8 records stores its node at the median
 // m = lo + (hi - lo) / 2, split on the axis of largest bounding-box extent; the left subtree is
 // [lo, m) with coordinates <= the node's, the right [m + 1, hi) with coordinates >= it. Ranges of

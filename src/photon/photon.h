@@ -1,8 +1,8 @@
 #pragma once
-// The photon record (DESIGN.md, Photons): 20 bytes, pointer-free. Position as float[3]; power as
-// shared-exponent RGBE relative to its map's photon power (grey photons store exactly 1, so the
-// encoding adds no error there); a direction as a 16-bit octahedral code (see dir_oct); the
-// kd-tree split axis; flags. Plain data; thread-safe to read.
+// The photon record: 20 bytes, pointer-free. Position as float[3]; power as shared-exponent RGBE
+// relative to its map's photon power (grey photons store exactly 1, so the encoding adds no error
+// there); a direction as a 16-bit octahedral code (see dir_oct); the kd-tree split axis; flags.
+// Plain data; thread-safe to read.
 
 #include "core/math.h"
 

@@ -1,20 +1,17 @@
 #pragma once
-// The photon-beam estimate's hierarchy (Jarosz, Nowrouzezahrai, Sadeghi, Jensen 2011). The volume
-// map's beams (photon.h) share one radius, map_radius(); they are cut into pieces at most
-// kPieceRadii radii long so that bounding boxes stay tight, and a bounding-volume hierarchy over
-// the pieces answers, for a camera-ray segment, every piece whose cylinder the segment crosses.
-// A beam is blurred across its axis by the uniform 2D kernel 1/(π r²), so a camera ray's
-// in-scattered radiance is Σ Φ_b σ_s f(θ) T / (π r²) × the length of the ray's chord through the
-// cylinder, σ_s and T at the chord's point closest to the beam. Short beams: a beam's own
-// transmittance is the probability that its free path got that far, so it is 1 here — which needs
-// free paths sampled exactly ∝ transmittance, and the pipeline delta-tracks them (with ray-marched
-// free paths, σ held at one point per step, the bundled cloud's multiple scattering stayed 3%
-// dark at 250k and at 1M photons; delta-tracked −5% → −1.9%, the blur shrinking with the radius).
-// Measured choices: the chord is bounded by the piece's length, where the 1D kernel's 1/sin θ
-// has infinite variance when beams run along camera rays (a g 0.85 cloud seen towards its lit
-// side: relMSE 0.18–0.67 against 0.03–0.05); one radius per map, where a radius per beam, large
-// where photons are sparse, blurred the plume's light out across its edges (smoke.json over a
-// 10 km ground, 25k photons: plume −1.3% against the path tracer, one radius −0.4%).
+// The photon-beam estimate's hierarchy (Jarosz, Nowrouzezahrai, Sadeghi, Jensen 2011;
+// docs/design.md, Photon beams). The volume map's beams (photon.h) share one radius,
+// map_radius(); they are cut into pieces at most kPieceRadii radii long so that bounding boxes
+// stay tight, and a bounding-volume hierarchy over the pieces answers, for a camera-ray segment,
+// every piece whose cylinder the segment crosses. A beam is blurred across its axis by the
+// uniform 2D kernel 1/(π r²), so a camera ray's in-scattered radiance is
+// Σ Φ_b σ_s f(θ) T / (π r²) × the length of the ray's chord through the cylinder, σ_s and T at
+// the chord's point closest to the beam. Short beams: a beam's own transmittance is the
+// probability that its free path got that far, so it is 1 here — which needs free paths sampled
+// exactly ∝ transmittance, and the pipeline delta-tracks them (ray-marched free paths left the
+// multiple scattering dark). The chord is bounded by the piece's length (the 1D kernel's
+// 1/sin θ has infinite variance when beams run along camera rays), and the radius is one per map
+// (a radius per beam blurred a plume's light out across its edges); docs/why.md.
 // Immutable after construction; queries are thread-safe.
 
 #include "photon/bvh.h"

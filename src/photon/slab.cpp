@@ -25,11 +25,12 @@ constexpr uint64_t kSlabStream = 0x534C4142ull;  // "SLAB": never a photon pass 
 constexpr uint64_t kChunk = 1024;
 
 // Geometry (world units = slab thicknesses). The grid's voxel (i, j, k) sits at index point
-// (i, j, k) and the density ramps to 0 over one voxel beyond the outer voxel centres (DESIGN.md,
-// Media), so ny voxels of height 1/ny, centred at y = −1 + (j + ½)/ny, give density 1 on
-// [−1 + ½/ny, −½/ny] and ramps of one voxel above and below: the optical depth across is exactly
-// σ_t · ny/ny = σ_t. Plane-parallel transport depends on depth only through the optical depth
-// τ(y) (substitute dτ = σ_t(y) dy in the RTE), so the ramps leave Rd and Tt unchanged.
+// (i, j, k) and the density ramps to 0 over one voxel beyond the outer voxel centres
+// (docs/design.md, Density between voxels), so ny voxels of height 1/ny, centred at
+// y = −1 + (j + ½)/ny, give density 1 on [−1 + ½/ny, −½/ny] and ramps of one voxel above and
+// below: the optical depth across is exactly σ_t · ny/ny = σ_t. Plane-parallel transport depends
+// on depth only through the optical depth τ(y) (substitute dτ = σ_t(y) dy in the RTE), so the
+// ramps leave Rd and Tt unchanged.
 // Across x and z, 2 voxels of kWidth thicknesses: density 1 for |x|, |z| <= kWidth / 2, then a
 // ramp to 0 at 3 kWidth / 2. The beam enters within ½ of the axis, so a photon reaches the sides
 // only by travelling 100 thicknesses sideways: a single flight at |cos θ| < 0.01 that survives

@@ -1,6 +1,5 @@
 #pragma once
-// Pinhole camera (DESIGN.md conventions): vertical field of view, square pixels, row 0 at the
-// top. Immutable; thread-safe.
+// Pinhole camera: vertical field of view, square pixels, row 0 at the top. Immutable; thread-safe.
 
 #include "core/math.h"
 #include "scene/scene_desc.h"

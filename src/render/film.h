@@ -86,8 +86,8 @@ struct Film {
 
 /// Sums of films in 64-bit fixed point (2^-32 units per value): integer addition is exact and
 /// associative, so a sum over iterations has the same bits whatever order — or rank — the
-/// iterations were added in (DESIGN.md, Ranks). Values beyond ±2^24 (radiance 1.7e7), and sums
-/// that would overflow, are clamped and counted (the pipeline warns).
+/// iterations were added in (docs/design.md, Determinism). Values beyond ±2^24 (radiance 1.7e7),
+/// and sums that would overflow, are clamped and counted (the pipeline warns).
 struct FixedFilm {
     static constexpr double kUnit = 4294967296.0;  // 2^32
     int width = 0, height = 0;

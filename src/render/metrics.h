@@ -1,5 +1,5 @@
 #pragma once
-// Image error metrics against a reference (DESIGN.md, Error against run time), over all pixels
+// Image error metrics against a reference (docs/measurements.md), over all pixels
 // and channels: RMSE, relative MSE = mean of (x−y)²/(y²+0.01), mean bias = mean(x−y).
 // Pure functions; thread-safe.
 

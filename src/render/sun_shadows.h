@@ -1,11 +1,9 @@
 #pragma once
 // The sun's shadows inside and below grid media from tabulated optical depth (media/light_depth.h)
-// instead of a ratio-tracked walk per shadow ray. The photon integrator's camera paths ask for
-// the sun's transmittance at every vertex (up to three in media, and ground points); on smoke1
-// over a ground the shadow rays' walks (sun and sky) were 31% of a 64-spp run's profile, and the
-// grid (2.9·10⁶ nodes, 12 MB, built in 0.04–0.05 s) makes its render phase 24% faster. Surfaces
-// still occlude by an Embree query. Only when every medium is a grid: homogeneous media keep their
-// walks, which are exact there.
+// instead of a ratio-tracked walk per shadow ray: the photon integrator's camera paths ask for the
+// sun's transmittance at every vertex (up to three in media, and ground points), and those walks
+// were a large share of its render time (docs/why.md). Surfaces still occlude by an Embree query.
+// Only when every medium is a grid: homogeneous media keep their walks, which are exact there.
 // Thread-safety: immutable after construction.
 
 #include "media/light_depth.h"

@@ -1,14 +1,14 @@
 #pragma once
-// The volume gather along one camera segment (DESIGN.md, Radiance estimates), used by the photon
-// integrator and by bench/gather_bench.cpp alike: the segment is marched once into a table of
-// steps (σ held constant per step, the same step settings as the photon pass); single scattering
+// The volume gather along one camera segment (docs/design.md, Radiance estimates), used by the
+// photon integrator and by bench/gather_bench.cpp alike: the segment is marched once into a table
+// of steps (σ held constant per step, the same step settings as the photon pass); single scattering
 // comes from light_samples shadow rays per light at points drawn ∝ the march's weights, and for
-// point and spot lights as many again drawn equi-angularly (Kulla & Fajardo 2012), combined by
-// the balance heuristic (a shadow ray at every step when 0); multiple scattering from the volume
-// map, either the sphere estimate at lookups_per_ray steps drawn by stratified importance
-// sampling of the march's weights (every step when 0) or the beam estimate (Jarosz, Zwicker,
-// Jensen 2008) over the whole segment. Where media overlap the phase function is media/phase.h's
-// mixture. Immutable and shared const; State is per thread.
+// point and spot lights as many again drawn equi-angularly (Kulla & Fajardo 2012), combined by the
+// balance heuristic (a shadow ray at every step when 0); multiple scattering from the volume map,
+// either the sphere estimate at lookups_per_ray steps drawn by stratified importance sampling of
+// the march's weights (every step when 0) or the beam estimate (Jarosz, Zwicker, Jensen 2008) over
+// the whole segment. Where media overlap the phase function is media/phase.h's mixture. Immutable
+// and shared const; State is per thread.
 
 #include "core/rng.h"
 #include "media/ray_march.h"

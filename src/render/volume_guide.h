@@ -1,13 +1,14 @@
 #pragma once
-// Path guiding in media from the volume photon map (Jensen 1995; Vorba et al. 2014; DESIGN.md,
-// Next: guiding). At a scattering vertex x of a path travelling along d, the k photons nearest to
-// x say where light arrives from: photon j came travelling along d_j, so light reaches x from
-// ω_j = −d_j. The guide is a mixture of von Mises–Fisher lobes around the ω_j, lobe j weighted by
-// the photon's power times the phase function toward it (a product with the phase, so the lobes
-// that matter for this path come first). Directions are drawn by one-sample MIS between the
-// phase function (probability `phase_fraction`) and the guide, and always weighted by
-// f / p_mix, never f / p_guide: a poor guide costs variance, never bias (with no photon near x
-// the phase function alone is used). Immutable; the lobes are per vertex (per thread).
+// Path guiding in media from the volume photon map (Jensen 1995; Vorba et al. 2014;
+// docs/design.md, Guided path tracing). At a scattering vertex x of a path travelling along d,
+// the k photons nearest to x say where light arrives from: photon j came travelling along d_j, so
+// light reaches x from ω_j = −d_j. The guide is a mixture of von Mises–Fisher lobes around the
+// ω_j, lobe j weighted by the photon's power times the phase function toward it (a product with
+// the phase, so the lobes that matter for this path come first). Directions are drawn by
+// one-sample MIS between the phase function (probability `phase_fraction`) and the guide, and
+// always weighted by f / p_mix, never f / p_guide: a poor guide costs variance, never bias (with
+// no photon near x the phase function alone is used). Immutable; the lobes are per vertex (per
+// thread).
 
 #include "core/rng.h"
 #include "media/medium.h"
@@ -20,12 +21,9 @@
 
 namespace fogmap {
 
-/// Measured on the Disney cloud and smoke1 over a 10 km ground (README, "Guided path tracing"):
-/// guiding every vertex multiplied path weights up to 2 per bounce (f / p_mix) and the long
-/// random walks of an albedo-0.99 cloud turned that into fireflies (relMSE 0.26 against 0.014
-/// unguided at 64 spp); guiding the first medium vertex only, with these settings, came closest
-/// to the plain path tracer without beating it, and with AdjointSplit's splitting it cost
-/// relMSE × time +10–24%: render.guide_vertices (`vertices`) is 0 unless a scene asks.
+/// Guiding settings; render.guide_vertices (`vertices`) is 0 unless a scene asks: guiding every
+/// vertex made fireflies in long random walks, and guiding the first medium vertex only did not
+/// beat the plain path tracer (docs/measurements.md; docs/why.md).
 struct GuideSettings {
     int k = 16;                   ///< photons per guide
     float radius = 0.0f;          ///< world units: the largest distance of a guide photon
@@ -68,9 +66,9 @@ private:
 /// interaction scattered towards ω_o, from the volume map's photons binned in cubic cells:
 /// Σ ΔΦ (1 + 3 a₁ ω_o · ω̄) / (4π V σ̄_s) per cell — the phase's Legendre series to l = 1, ω̄ the
 /// photons' power-weighted mean direction, σ̄_s the mean of σ_s at kPoints³ points of the cell
-/// (fewer missed cells the medium fills in part: 8 points made one edge cell's L̃ 500× too
-/// large). One read a lookup: a rough picture is enough, it decides how many paths go on, never
-/// what they carry. Cells hold at least kMinPhotons photons to count (else L̃ = 0).
+/// (fewer points missed cells the medium fills in part; docs/why.md). One read a lookup: a rough
+/// picture is enough, it decides how many paths go on, never what they carry. Cells hold at
+/// least kMinPhotons photons to count (else L̃ = 0).
 class AdjointGrid {
 public:
     static constexpr size_t kMaxCells = size_t(1) << 18;

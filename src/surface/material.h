@@ -1,8 +1,7 @@
 #pragma once
-// Surface materials (DESIGN.md, Photons): Lambertian diffuse, perfect mirror and a smooth
-// dielectric with exact Fresnel reflectance, and the one specular-scattering rule every tracer
-// uses (camera paths carry radiance, photons importance-like power). Plain data plus pure
-// helpers; thread-safe.
+// Surface materials: Lambertian diffuse, perfect mirror and a smooth dielectric with exact Fresnel
+// reflectance, and the one specular-scattering rule every tracer uses (camera paths carry radiance,
+// photons importance-like power). Plain data plus pure helpers; thread-safe.
 
 #include "core/math.h"
 

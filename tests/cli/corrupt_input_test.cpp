@@ -1,5 +1,5 @@
-// Hostile input through the fogmap command line (issue 5, part 5): truncated and bit-flipped VDB
-// files, VDBs crafted to overflow OpenVDB 10.0's blosc reader or to make it allocate 4 GB,
+// Hostile input through the fogmap command line: truncated and bit-flipped VDB files, VDBs crafted
+// to overflow OpenVDB 10.0's blosc reader or to make it allocate 4 GB,
 // truncated JSON, JSON with huge numbers or deep nesting, a PLY whose header claims 1e12
 // vertices. Each must end with exit code 2, exactly one message line "fogmap: error: <file>: ...",
 // no new file in the output folder and an existing output left untouched. The corrupted files

@@ -1,5 +1,5 @@
-// Issue 15 through the fogmap command line: hostile input never crashes, hangs or silently gives a
-// wrong answer, and outputs are safe. One test (or a few) per class of the issue:
+// Hostile input through the fogmap command line: it never crashes, hangs or silently gives a
+// wrong answer, and outputs are safe. One test (or a few) per class:
 //   1. cost decided up front: non-regular and oversized input files, JSON too big for memory,
 //      bench run counts, image memory, a VDB sampler over a huge active box, march steps per ray;
 //   2. crashes: extreme transforms and voxel sizes, bit flips in a VDB's transform;
@@ -253,7 +253,7 @@ TEST_F(HostileInput, AbsurdMarchStepIsRefusedWithItsEstimate) {
 // ---- 2. Crashes --------------------------------------------------------------------------------
 
 TEST_F(HostileInput, ExtremeTransformsAreInputErrorsNotEmbreeAborts) {
-    // Each aborted in Embree's ray.valid() assertion (SIGABRT) or rendered nothing.
+    // Unchecked, each aborts in Embree's ray.valid() assertion (SIGABRT) or renders nothing.
     expect_one_error(run("render -q " +
                          scene({{"media", json::array({{{"type", "vdb"},
                                                         {"file", kPlume},
@@ -305,7 +305,7 @@ TEST_F(HostileInput, BitFlipsInTheVdbTransformNeverAbort) {
             EXPECT_FALSE(r.signaled) << r.err;
             EXPECT_TRUE(r.code == 0 || r.code == 2) << r.code << ": " << r.err;
             if (r.code == 2) expect_one_error(r, 2, {"flip.vdb"});
-            // The scale's exponent made 0.035 into ~1e152 (SIGABRT before) or singular.
+            // The scale's exponent makes 0.035 into ~1e152 (unchecked: SIGABRT) or singular.
             if (k == 0) expect_one_error(r, 2, {"flip.vdb", "/media/0"});
         }
     }
@@ -315,8 +315,8 @@ TEST_F(HostileInput, BitFlipsInTheVdbTransformNeverAbort) {
 
 TEST_F(HostileInput, TruncatedVdbIsAnErrorNotAnEmptyGrid) {
     const std::string bytes = slurp(kPlume);
-    // 1480 bytes ends inside the transform (it read as an empty grid, exit 0); the rest cut
-    // the voxel data.
+    // 1480 bytes ends inside the transform (unchecked, it reads as an empty grid, exit 0); the rest
+    // cut the voxel data.
     for (const size_t keep : {size_t(1480), bytes.size() / 4, bytes.size() / 2, bytes.size() - 1}) {
         SCOPED_TRACE("kept " + std::to_string(keep) + " bytes");
         spit(path("cut.vdb"), bytes.substr(0, keep));
@@ -328,7 +328,7 @@ TEST_F(HostileInput, TruncatedVdbIsAnErrorNotAnEmptyGrid) {
 }
 
 TEST_F(HostileInput, LightPowerThatOverflowsFloatIsRefused) {
-    // 1e36 W/m^2 dropped half the samples and the sun without a word.
+    // Unchecked, 1e36 W/m^2 drops half the samples and the sun without a word.
     expect_one_error(run("render -q " +
                          scene({{"lights", json::array({{{"type", "sun"},
                                                          {"direction", {0.3, -1, 0.2}},
@@ -486,7 +486,7 @@ TEST_F(HostileInput, FileSizeLimitDuringTheWriteKeepsTheOldOutputs) {
     spit(path("out.exr"), "an older render");
     spit(path("out.png"), "an older preview");
     // A file-size limit (prlimit takes bytes; `ulimit -f` blocks differ between shells) of one
-    // byte less than the file fails its last bytes (before, the final flush failed silently:
+    // byte less than the file fails its last bytes (unchecked, the final flush fails silently:
     // exit 0, "wrote", a truncated EXR over the old one); 20 KB fails it early.
     for (const uintmax_t limit : {size - 1, uintmax_t(20000)}) {
         SCOPED_TRACE("limit " + std::to_string(limit) + " of " + std::to_string(size) + " bytes");
@@ -610,9 +610,10 @@ TEST_F(HostileInput, CorruptVdbMessagesAreFogmapReasonsNotLibraryText) {
     const size_t map = plume_transform_offset();
     const size_t type = bytes.find("Tree_float");
     ASSERT_NE(type, std::string::npos);
-    // Each of these gave OpenVDB's own text: "Grid type Tree_float... is not registered",
-    // "Map ... is not registered", "ArithmeticError: Tried to initialize an affine transform from
-    // a nearly singular matrix", "Expected to decompress N bytes, got 18446744073709551615 bytes".
+    // Unmapped, each of these gives OpenVDB's own text: "Grid type Tree_float... is not
+    // registered", "Map ... is not registered", "ArithmeticError: Tried to initialize an affine
+    // transform from a nearly singular matrix", "Expected to decompress N bytes, got
+    // 18446744073709551615 bytes".
     const std::pair<size_t, unsigned char> flips[] = {
         {type + 11, 0x01},        {map - 5, 0x02},          {map + 7, 0x20},
         {bytes.size() / 2, 0xff}, {bytes.size() / 3, 0xff}, {bytes.size() * 2 / 3, 0xff}};

@@ -213,8 +213,8 @@ TEST(DepthCap, EveryPathInADeepConservativeMediumIsCountedAsCut) {
     }
 }
 
-// The path tracer in the slab of `fogmap validate` (issue 15): a laterally wide homogeneous slab
-// of unit thickness under a sun at normal incidence (irradiance 1). Diffuse reflectance is
+// The path tracer in the slab of `fogmap validate`: a laterally wide homogeneous slab of unit
+// thickness under a sun at normal incidence (irradiance 1). Diffuse reflectance is
 // Rd = ∫ L_up cos θ dω / E: rays leave a point just above the slab downwards in cosine-weighted
 // directions, so Rd = π × mean radiance; Td likewise from below, and Tt = Td + e^{−τ} (the
 // unscattered beam, a delta the rays never see). Scattering weighs the throughput by the albedo,

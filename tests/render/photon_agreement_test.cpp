@@ -156,10 +156,9 @@ std::array<double, 4> region_ratios(const Film& film, const Image& reference) {
 // the volume map at vertex 3), the render agrees with a path-traced reference in the image mean,
 // on the plume, in its shadow and on the lit ground (the mean of 8 seeds; measured −0.09%,
 // −0.6%, −0.04%, −0.02%; 4 seeds, 11–14 and 21–24: plume −0.7% and −1.4%). The ground's light
-// reaches the plume through the bounce stream: without it the plume came out 8.7% too dark here,
-// and before meets_sphere kept its precision kilometres away streams counted paths twice. 1.5%
-// allows for the 1024-spp reference and the map's blur. The regions come from a photon render's
-// layers.
+// reaches the plume through the bounce stream: without it the plume comes out 8.7% too dark here.
+// 1.5% allows for the 1024-spp reference and the map's blur. The regions come from a photon
+// render's layers.
 TEST(PhotonAgreement, PlumeOverATenKilometreGroundMatchesThePathTracer) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
     std::vector<std::string> o{"camera.width=64",
@@ -183,8 +182,8 @@ TEST(PhotonAgreement, PlumeOverATenKilometreGroundMatchesThePathTracer) {
 
 // The bundled albedo-0.99 cloud (g 0.85), its maps seen from camera rays by the beam estimate with
 // 10⁶ photons and k 50: the cloud's pixels agree with the path tracer within 3% (measured +1.35%;
-// the beam's blur). With the sphere estimate, the
-// default before, they came out 7% too bright here, 15% with the scene's k 200 at 4·10⁶ photons.
+// the beam's blur). With the sphere estimate they come out 7% too bright here, 15% with the
+// scene's k 200 at 4·10⁶ photons.
 TEST(PhotonAgreement, CloudMatchesThePathTracer) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
     std::vector<std::string> o{
@@ -240,17 +239,16 @@ TEST(PhotonAgreement, PhotonBeamsMatchThePathTracer) {
 // on the albedo-0.99, g 0.85 cloud and D = 1 in fog.json (4096-spp references, which a 1024-spp
 // one's noise, ±1% in fog's image mean and ±2–3% on the cloud, would swamp; measured cloud +2.2%
 // and +0.2% on seeds 1–4 and 11–14, fog +1.4% and 0.0%; at D = 1 the cloud's blur, +2% at
-// 200 000 photons, shrinks with the radius: image +0.45%, and +0.11% at 1.6 million). Sampling the
-// sun and sky at the last vertex with the MIS weight of a path that goes on lost the phase-sampled
-// share of the sky: −2.2% on the plume at D = 1 (−3.8% without the ground). fog.json's spot light:
-// its equi-angular estimate along the camera segment was weighted by the segment's transmittance
-// when the camera segment became a ratio-tracking walk (image −9% at D = 1). The regions come from
-// a photon render's layers.
+// 200 000 photons, shrinks with the radius: image +0.45%, and +0.11% at 1.6 million). Caught here:
+// the sun and sky sampled at the last vertex with the MIS weight of a path that goes on (the
+// phase-sampled share of the sky lost: −2.2% on the plume at D = 1, −3.8% without the ground), and
+// fog.json's spot light with its equi-angular estimate along the camera segment weighted by the
+// segment's transmittance (image −9% at D = 1). The regions come from a photon render's layers.
 struct PathsEndingCase {
     const char* scene;
     int depth;
     double medium_tolerance, image_tolerance;
-    /// The map's budget and k as the scene leaves them (their rules: scene/plan.h, volume_budget
+    /// The map's budget and k as the scene leaves them (their rules: render/run_setup.h, volume_budget
     /// and volume_k) at `spp`; else 200 000 photons, k 30 at 64 spp.
     bool rules = false;
     int spp = 64;
@@ -294,8 +292,7 @@ TEST(PhotonAgreement, PathsEndingInTheVolumeMapMatchThePathTracer) {
 // +0.07%, medium +0.32% on seeds 1–4. With as many photons at 256 spp one seed's medium varies
 // by ±0.9% (the map's noise), and the mean of 16 was +0.25 ± 0.23% against a 65 536-spp
 // reference: hence 1.5%. At 256 spp by the rules (147 456 photons) the balls' blur leaves the
-// medium +2.1 ± 0.5% (16 seeds), and +2.5% while FineEnough read the lookup's own photon count
-// (render/volume_map_end.h).
+// medium +2.1 ± 0.5% (16 seeds; render/volume_map_end.h, FineEnough).
 TEST(PhotonAgreementHeavy, PathsEndingInTheVolumeMapMatchThePathTracerOnCloudAndFog) {
     for (const PathsEndingCase& c :
          {PathsEndingCase{"cloud.json", 2, 0.03, 0.01}, PathsEndingCase{"fog.json", 1, 0.02, 0.02},
@@ -312,7 +309,7 @@ TEST(PhotonAgreementHeavy, PathsEndingInTheVolumeMapMatchThePathTracerOnCloudAnd
 // vertex earlier (the mean of 4 seeds at 128 spp; measured: ground −0.4% and +0.1%, box +0.3%
 // and +0.6%; seeds 11–14 and 21–24: ground down to −1.8% and −1.1%; one render of 512 spp moved
 // the ground by ±1.5% from seed to seed). Ending a path without the direct light at its last
-// vertex left the ground 40% and 21% dark.
+// vertex would leave the ground 40% and 21% dark.
 TEST(PhotonAgreement, PathsFromTheGroundEndInTheVolumeMapAfterItsBounce) {
     SceneDesc d;
     d.camera.position = Vec3(0.0f, 7.0f, 7.0f);

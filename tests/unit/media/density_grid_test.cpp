@@ -62,7 +62,7 @@ std::string shared_file(const std::string& name) {
 }
 
 /// Trilinear interpolation of value(i, j, k) (0 outside [0,n)) at p: the independent reference
-/// (DESIGN.md, Media: voxel (i,j,k) sits at index point (i,j,k)).
+/// (docs/design.md, Density between voxels: voxel (i,j,k) sits at index point (i,j,k)).
 float hand_trilinear(const std::function<float(int, int, int)>& value, const Vec3& p) {
     const int x0 = static_cast<int>(std::floor(p.x)), y0 = static_cast<int>(std::floor(p.y));
     const int z0 = static_cast<int>(std::floor(p.z));

@@ -1,5 +1,5 @@
 // Image error metrics against values worked out by hand: zero against itself, a constant offset,
-// a ± pattern and a single changed value (DESIGN.md, Error against run time: RMSE, relMSE =
+// a ± pattern and a single changed value (render/metrics.h: RMSE, relMSE =
 // mean of (x−y)²/(y²+0.01), bias = mean(x−y), over all pixels and channels).
 
 #include "render/metrics.h"

@@ -405,9 +405,9 @@ TEST(VolumeMapEnd, PathsEndWhereTheBallSpansFewMeanFreePaths) {
 // path ends depends on the photon count about x. Uniform photons in a homogeneous medium, max_tau
 // set where the smaller ball spans it at the mean count: about half the points end. Their
 // lookups must average what every lookup averages (itself ρ ΔΦ / (4π σ_s) within the map's
-// noise, ±1%): a decision read from the lookup's own photons ended where the count was high by
-// chance, +4.4%, +5.8% and +4.2% above every lookup's mean with three photon seeds (now −0.2%,
-// −0.1%, −0.1%).
+// noise, ±1%): a decision read from the lookup's own photons ends where the count is high by
+// chance, +4.4%, +5.8% and +4.2% above every lookup's mean with three photon seeds; read about
+// the offset points (kDecisionOffset), −0.2%, −0.1%, −0.1%.
 TEST(VolumeMapEnd, WhetherAPathEndsDoesNotFollowTheNoiseOfTheLookupsPhotons) {
     const int count = 200000;
     Rng rng(29, 3);

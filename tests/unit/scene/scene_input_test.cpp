@@ -1,5 +1,5 @@
-// Hostile scene files (issue 15): a key given twice, a shape without its material, transforms
-// that are singular or out of the world range, lights whose power overflows float, and files that
+// Hostile scene files: a key given twice, a shape without its material, transforms that are
+// singular or out of the world range, lights whose power overflows float, and files that
 // are not regular files or are too large to read. Each is an InputError naming the JSON pointer
 // (or the file) with what was found and what was expected.
 
