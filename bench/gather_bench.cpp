@@ -22,8 +22,8 @@
 #include "photon/photon_beams.h"
 #include "photon/photon_pass.h"
 #include "render/gather_params.h"
+#include "render/run_setup.h"
 #include "render/volume_gather.h"
-#include "scene/plan.h"
 
 #include <benchmark/benchmark.h>
 

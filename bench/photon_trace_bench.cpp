@@ -10,7 +10,7 @@
 #include "bench_volumes.h"
 #include "core/parallel.h"
 #include "photon/photon_pass.h"
-#include "scene/plan.h"
+#include "render/run_setup.h"
 
 #include <benchmark/benchmark.h>
 

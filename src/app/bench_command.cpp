@@ -35,12 +35,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// `d` running integrator `i` as if the scene named it: no choice of auto left (its pilot would
-/// otherwise pick again).
+/// `d` running integrator `i` as if the scene named it, at the volume gather depth auto would
+/// take: no choice of auto left (its pilot would otherwise pick again).
 SceneDesc with_integrator(SceneDesc d, Integrator i) {
+    d.volume.gather_depth = resolve_run(d).run.volume.gather_depth;
     d.render.integrator = i;
-    d.render.auto_reason.clear();
-    d.render.auto_media = false;
     return d;
 }
 
@@ -271,7 +270,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
             // timed with it: method "auto" where a pilot decides).
             const bool named_auto = std::find(overrides.begin(), overrides.end(),
                                               "render.integrator=auto") != overrides.end();
-            if (!runs.back().render.auto_reason.empty() && !named_auto)
+            if (runs.back().render.integrator == Integrator::Auto && !named_auto)
                 runs.back() = with_integrator(runs.back(), Integrator::Photon);
             runs.back().render.threads = std::min(runs.back().render.threads, thread_count(0));
         } catch (const InputError& e) {
@@ -328,7 +327,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
     for (size_t i = 0; i < runs.size(); ++i) {
         check_size(ref_width, ref_height, reference_file, runs[i],
                    "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
-        check_run_memory(runs[i], true);
+        check_run_memory(resolve_run(runs[i]), true);
     }
     // Rank 0 decides whether the cached reference exists (it alone writes it).
     std::error_code exists_ec;

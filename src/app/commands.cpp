@@ -77,9 +77,10 @@ std::string cap_threads(SceneDesc* desc) {
     return text;
 }
 
-void check_run_memory(const SceneDesc& desc, bool with_reference) {
+void check_run_memory(const RunSetup& setup, bool with_reference) {
+    const SceneDesc& desc = setup.run;
     const double pixels = double(desc.camera.width) * desc.camera.height;
-    const bool photon = desc.render.integrator == Integrator::Photon;
+    const bool photon = setup.photon();
     const int layers = photon ? 1 + kLayerCount : 1;
     // Films: the run's and the iteration's it adds (pipeline.cpp); the reference and, for
     // progressive runs, the running mean compared with it; the PNG's 8-bit RGB and its encoding.
@@ -88,7 +89,7 @@ void check_run_memory(const SceneDesc& desc, bool with_reference) {
     // 20 bytes per photon with its kd-tree (README, Kd-trees); the beam estimate keeps 40 more
     // per volume photon, photon beams about 200 (1.5 beams per photon measured on smoke.json,
     // each 28 bytes stored and one or more 44-byte pieces in their hierarchy).
-    const PhotonSettings& p = desc.photons;
+    const PhotonSettings& p = setup.photons;
     const double per_volume_photon = desc.volume.estimator == VolumeEstimator::Beam          ? 40.0
                                      : desc.volume.estimator == VolumeEstimator::PhotonBeams ? 200.0
                                                                                              : 0.0;
@@ -121,14 +122,17 @@ namespace {
 /// Renders `desc` and writes `exr` and `png` (both complete before either replaces an older one,
 /// core/output_files.h); returns the report.
 Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
-                        const std::string& png, const Image* reference) {
+                        const std::string& png, const Image* reference,
+                        const RunSetup* decided = nullptr) {
     const bool root = !args.ranks || args.ranks->rank() == 0;
     const std::string threads_warning = root ? cap_threads(&desc) : "";
-    check_run_memory(desc, reference != nullptr);
+    RunSetup setup = decided ? *decided : resolve_run(desc);
+    setup.run.render.threads = desc.render.threads;
+    check_run_memory(setup, reference != nullptr);
     // Checkpoints beside the EXR: written atomically by rank 0 (the last one at the end, so a
     // finished run can be extended), read by every rank on --resume (each needs the count).
     const std::string checkpoint_path = exr + ".checkpoint";
-    const uint64_t fingerprint = resumable_fingerprint(desc);
+    const uint64_t fingerprint = resumable_fingerprint(setup);
     std::optional<Checkpoint> resume;
     if (args.resume && fs::exists(checkpoint_path))
         resume = read_checkpoint(checkpoint_path, "--resume", fingerprint);
@@ -143,7 +147,8 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
         out.commit();
     };
     if (args.checkpoint_every > 0.0 && root) create_output_folder(checkpoint_path);
-    PipelineResult run = run_pipeline(desc, args.quiet, reference, args.ranks, &checkpoints);
+    PipelineResult run =
+        run_pipeline(desc, args.quiet, reference, args.ranks, &checkpoints, &setup);
     Report& report = run.report;
     if (!root) return std::move(report);  // rank 0 writes
     if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
@@ -236,8 +241,7 @@ int run_render(const RenderArgs& args) {
                              std::to_string(reference.height) + ", the camera renders " +
                              std::to_string(desc.camera.width) + "x" +
                              std::to_string(desc.camera.height));
-    if (args.checkpoint_every > 0.0 &&
-        !(desc.render.integrator == Integrator::Photon && desc.progressive.enabled()))
+    if (args.checkpoint_every > 0.0 && !(resolve_run(desc).photon() && desc.progressive.enabled()))
         throw InputError("", "--checkpoint-every",
                          "checkpoints are for progressive photon mapping; expected --iterations N "
                          "or --time-budget S with the photon integrator");
@@ -279,15 +283,14 @@ int run_render(const RenderArgs& args) {
     });
     // auto's pilot runs once, on the first frame, for the whole sequence (every rank alike: it is
     // deterministic): one integrator for every frame, whose noise and blur do not change mid-shot.
-    SceneDesc shot = desc;
-    if (shot.render.auto_media && !shot.progressive.enabled()) {
-        const SceneDesc first = frame_desc(shot, frames.front());
+    RunSetup shot = resolve_run(desc);
+    if (shot.pilot && !desc.progressive.enabled()) {
         std::unique_ptr<const Scene> scene;
-        agree_on_input(args.ranks, [&] { scene = load_scene(first); });
-        shot = pilot_auto(shot, *scene);
-        shot.render.auto_media = false;
-        shot.render.auto_reason += " (on frame " + std::to_string(frames.front()) +
-                                   ", for every frame of --frames " + args.frames + ")";
+        agree_on_input(args.ranks,
+                       [&] { scene = load_scene(frame_desc(shot.run, frames.front())); });
+        shot = settle_pilot(desc, std::move(shot), *scene);
+        shot.set_reason(shot.reason + " (on frame " + std::to_string(frames.front()) +
+                        ", for every frame of --frames " + args.frames + ")");
     }
     // Under mpirun the ranks form groups, dealt the frames round-robin; a group's ranks split
     // its frames' iterations, and its rank 0 writes them.
@@ -312,7 +315,10 @@ int run_render(const RenderArgs& args) {
         if (!args.quiet && speaks) std::fprintf(stderr, "frame %d\n", f);
         Report report;
         try {
-            report = render_and_write(frame_args, frame_desc(shot, f), exr_f, png_f, nullptr);
+            RunSetup frame = shot;
+            frame.run = frame_desc(shot.run, f);
+            report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr,
+                                      shot.pilot ? nullptr : &frame);
         } catch (const InputError& e) {  // say which frame
             const InputError framed(e.file, e.field,
                                     e.reason + " (frame " + std::to_string(f) + ")");

@@ -51,10 +51,11 @@ int run_volume(const VolumeArgs& args);
 /// Caps render.threads at the cores this process may use: returns the warning it printed on
 /// stderr ("" when the setting was within them), for the report.
 std::string cap_threads(SceneDesc* desc);
-/// Estimates the memory of one run up front (images: every film layer twice, the reference and
-/// the PNG; photon maps at the bytes per photon the README measures) and throws InputError naming
-/// the estimate in MB when it exceeds core/memory_budget.h's budget.
-void check_run_memory(const SceneDesc& desc, bool with_reference);
+struct RunSetup;
+/// Estimates the memory of one resolved run up front (images: every film layer twice, the
+/// reference and the PNG; photon maps at the bytes per photon docs/measurements.md gives) and
+/// throws InputError naming the estimate in MB when it exceeds core/memory_budget.h's budget.
+void check_run_memory(const RunSetup& setup, bool with_reference);
 /// Throws InputError{output, option, ...} when the output path names one of the run's inputs.
 void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs);

@@ -28,7 +28,7 @@ struct SlabArgs {
     std::string method = "march";
     float step_voxels = 1.0f;
     uint64_t seed = 1;
-    int max_bounces = PhotonSettings{}.max_bounces;
+    int max_bounces = PhotonDesc{}.max_bounces;
     int voxels = 32;
     bool json = false;
 };

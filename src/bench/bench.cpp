@@ -4,7 +4,7 @@
 #include "core/timer.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
-#include "scene/plan.h"
+#include "render/run_setup.h"
 
 #include <algorithm>
 #include <cmath>
@@ -93,10 +93,10 @@ double median(std::vector<double> v) {
 
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference, Ranks* ranks) {
     BenchRow row;
-    row.method = desc.render.auto_media ? "auto" : to_string(desc.render.integrator);
-    const bool progressive =
-        desc.render.integrator == Integrator::Photon && desc.progressive.enabled();
-    row.spp = progressive ? iteration_size(desc).spp : desc.render.spp;  // as the run takes it
+    const RunSetup setup = resolve_run(desc);
+    row.method = setup.pilot ? "auto" : integrator_name(setup.method);
+    const bool progressive = setup.photon() && desc.progressive.enabled();
+    row.spp = progressive ? setup.run.render.spp : desc.render.spp;  // as the run takes it
     row.repeats = std::max(repeats, 1);
     std::vector<std::vector<double>> phases(kBenchPhases.size());
     std::vector<double> totals, rmse, rel_mse, bias;

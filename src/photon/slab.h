@@ -22,8 +22,8 @@ struct SlabSettings {
     FreePathMethod method = FreePathMethod::March;
     float step_voxels = 1.0f;  ///< march step in voxels (the scene default), > 0
     uint64_t seed = 1;
-    int max_bounces = PhotonSettings{}.max_bounces;  ///< interactions per photon (the photon
-                                                     ///< pass's default safety limit), >= 1
+    int max_bounces = PhotonDesc{}.max_bounces;  ///< interactions per photon (the photon
+                                                 ///< pass's default safety limit), >= 1
     int voxels = 32;       ///< voxels across the thickness, >= 1
 };
 

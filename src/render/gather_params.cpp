@@ -1,7 +1,7 @@
 #include "render/gather_params.h"
 
 #include "photon/estimators.h"
-#include "scene/plan.h"
+#include "render/run_setup.h"
 
 #include <algorithm>
 #include <cmath>

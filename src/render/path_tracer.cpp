@@ -33,13 +33,9 @@ bool survive(int depth, Color* beta, Rng& rng) {
 // Uniforms for dimension `dim` of sample ps.s of its pixel, a Latin hypercube over the pixel's
 // group of kStrataGroup consecutive samples: on either axis each of the group's strata holds one
 // sample (the strata shuffled per pixel, group and dimension), jittered by j; each sample is
-// uniform over [0, 1)² as s is. Used for the first vertex's direction and sky sample: smoke1
-// over a 10 km ground, 64 spp, 8 seeds, relMSE 0.000613 → 0.000556 with paths ending in the map
-// (the camera segment's two branches both start there) at the same time; one group of all 64
-// samples 0.000542, but a 4-spp pilot would then see less of it than the render gets (the photon
-// integrator's relMSE predicted 1.8x high on smoke.json at 64x36, the path tracer's 1.4x).
-// Stratifying the camera segment's pick too (−2%) or the second vertex (−1%) was not worth its
-// code.
+// uniform over [0, 1)² as s is. Used for the first vertex's direction and sky sample, where it
+// lowers the error at the same time; groups of kStrataGroup, not of all of a pixel's samples,
+// so that a few-spp pilot sees the variance the render gets (docs/why.md).
 Vec2 stratified(const PixelSample& ps, uint64_t dim, Vec2 j) {
     const int group = ps.s / kStrataGroup;
     const uint32_t n = static_cast<uint32_t>(std::min(kStrataGroup, ps.spp - group * kStrataGroup));
@@ -413,11 +409,10 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const VolumeGuide* guide, const VolumeMapEnd* end, const SunShadows* sun,
-                 const AdjointSplit* adjoint) {
+                 const AdjointSplit* adjoint, TileShare tiles) {
     const PathTracer tracer(scene, settings.max_depth, guide, end, sun, adjoint);
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed,
-        TileShare{settings.tile_index, settings.tile_count}, /*layered=*/false, quiet, stats,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, quiet, stats,
         [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;
@@ -427,13 +422,14 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
 }
 
 Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,
-                            const AdjointGrid& grid, RenderStats* stats) {
+                            const AdjointGrid& grid, RenderStats* stats, TileShare tiles) {
     RenderSettings pre = settings;
     pre.spp = kPixelEstimateSpp;
     pre.seed = mix64(settings.seed ^ 0x61646a6f696e74ull);  // not the render's samples
     const AdjointSplit ends{&grid, nullptr};
     const Image film =
-        render_path(scene, pre, /*quiet=*/true, stats, nullptr, nullptr, nullptr, &ends).beauty;
+        render_path(scene, pre, /*quiet=*/true, stats, nullptr, nullptr, nullptr, &ends, tiles)
+            .beauty;
     // Within the pixel's tile: a rank rendering a share of the tiles gets the same Ĩ.
     Image out(film.width, film.height);
     for (int y = 0; y < film.height; ++y)

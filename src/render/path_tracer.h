@@ -1,14 +1,11 @@
 #pragma once
-// Reference integrator (DESIGN.md, Media): an unbiased volumetric path tracer. Weighted delta
-// tracking finds scattering events in media; next-event estimation to every light uses residual
-// ratio-tracked transmittance (point and spot lights in media: equi-angular samples per segment);
-// area, sun-disc and environment lights are combined with phase/BSDF sampling by multiple
-// importance sampling (power heuristic); at medium vertices the environment (constant radiance)
-// is light-sampled by the phase function, so its estimate varies only with the transmittance
-// (uniform-sphere samples weighted a g 0.85 phase's peak by luck: the Disney cloud over a ground,
-// paths ending in the map, relMSE −7% at equal time), at diffuse surfaces by the cosine (uniform
-// sphere samples wasted half and weighted the rest by their cosine: smoke1 over a 10 km ground,
-// 64 spp, relMSE −3% for the path tracer, −2.4% with paths ending in the map); the first vertex's
+// Reference integrator (docs/design.md, The path tracer): an unbiased volumetric path tracer.
+// Weighted delta tracking finds scattering events in media; next-event estimation to every light
+// uses residual ratio-tracked transmittance (point and spot lights in media: equi-angular samples
+// per segment); area, sun-disc and environment lights are combined with phase/BSDF sampling by
+// multiple importance sampling (power heuristic); the environment (constant radiance) is
+// light-sampled by the phase function at medium vertices and by the cosine at diffuse surfaces,
+// so its estimate varies only with the transmittance (docs/why.md); the first vertex's
 // direction and sky sample are stratified over groups of a pixel's samples (Latin hypercube, as
 // the sub-pixel positions); Russian roulette once the throughput falls below 1;
 // max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
@@ -18,9 +15,8 @@
 // delta-tracked: one ratio-tracking walk picks an in-scattering point ∝ T σ_s (media/medium.h,
 // ratio_track_pick) and the path continues from it with weight ≈ 1 − T *and* from the surface or
 // sky behind with the walk's transmittance. That removes the camera ray's scatter-or-pass-through
-// coin (smoke.json, D 3, 64 spp: relMSE −13% for +7.5% CPU time; smoke1 over a 10 km ground
-// −11%, the Disney cloud −2%); the plain path tracer keeps delta tracking (the two branches cost
-// it 15% time for 7% less error). The photon integrator also passes its SunShadows: shadow rays to
+// coin (docs/why.md); the plain path tracer keeps delta tracking, where the two branches cost
+// more time than they save. The photon integrator also passes its SunShadows: shadow rays to
 // a sun then take the media's transmittance from a grid of optical depth along it
 // (render/sun_shadows.h; surfaces still occlude), which the plain path tracer never does. The
 // guided integrator passes an AdjointSplit: paths split at medium vertices where the volume map
@@ -30,6 +26,7 @@
 #include "core/rng.h"
 #include "render/film.h"
 #include "render/sun_shadows.h"
+#include "render/tiles.h"
 #include "render/volume_guide.h"
 #include "render/volume_map_end.h"
 #include "scene/scene.h"
@@ -45,18 +42,17 @@ namespace fogmap {
 /// at as many samples a pixel, then sees the variance per sample the render has.
 inline constexpr int kStrataGroup = 4;
 
-/// Adjoint-driven splitting at medium vertices (after Vorba & Křivánek 2016; README, "Guided
-/// path tracing"): after the direct light at a medium vertex x, the path's expected contribution
-/// β (L̃(x) + D) — L̃ the light to come from the volume map (AdjointGrid), D the direct light just
-/// estimated (its MIS share is still to come) — against its pixel's estimate Ĩ decides: above
-/// Vorba's weight window [kBelow, kAbove] (s = 5) the path splits into ⌈β (L̃ + D) / Ĩ⌉ copies
-/// (at most kMaxSplit, and kSplitBudget extra copies a camera sample), each weighted 1/n; within
-/// it the path goes on without roulette (the plain roulette would end most of a split's copies
-/// at the next vertex: relMSE +45% on smoke1 over a 10 km ground); below it the plain roulette.
+/// Adjoint-driven splitting at medium vertices (after Vorba & Křivánek 2016; docs/design.md,
+/// Guided path tracing): after the direct light at a medium vertex x, the path's expected
+/// contribution β (L̃(x) + D) — L̃ the light to come from the volume map (AdjointGrid), D the
+/// direct light just estimated (its MIS share is still to come) — against its pixel's estimate Ĩ
+/// decides: above Vorba's weight window [kBelow, kAbove] (s = 5) the path splits into
+/// ⌈β (L̃ + D) / Ĩ⌉ copies (at most kMaxSplit, and kSplitBudget extra copies a camera sample),
+/// each weighted 1/n; within it the path goes on without roulette (the plain roulette would end
+/// most of a split's copies at the next vertex); below it the plain roulette, not Vorba's
+/// (survival β L̃ / Ĩ): L̃ is too rough a picture to end paths by (docs/why.md).
 /// Any such choice from the path so far is unbiased; this one spends samples where the light
-/// is. Vorba's roulette below the window (survival β L̃ / Ĩ) cost relMSE × time +11% on smoke1
-/// and +6% on the Disney cloud (both over the ground): L̃ is too rough a picture to end paths
-/// by. Without `pixels` the tracer makes Ĩ: paths end at their first medium vertex with its
+/// is. Without `pixels` the tracer makes Ĩ: paths end at their first medium vertex with its
 /// direct light plus β L̃ (render_pixel_estimate).
 struct AdjointSplit {
     const AdjointGrid* grid = nullptr;  ///< L̃
@@ -146,7 +142,8 @@ private:
 /// ended by `end` when given. An unlayered film. Progress on stderr unless quiet.
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const VolumeGuide* guide = nullptr, const VolumeMapEnd* end = nullptr,
-                 const SunShadows* sun = nullptr, const AdjointSplit* adjoint = nullptr);
+                 const SunShadows* sun = nullptr, const AdjointSplit* adjoint = nullptr,
+                 TileShare tiles = {});
 
 /// AdjointSplit's Ĩ: a render of kPixelEstimateSpp samples a pixel whose paths end at their first
 /// medium vertex with L̃ from `grid`, its average over each pixel's 3 × 3 neighbourhood within its
@@ -154,6 +151,7 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
 inline constexpr int kPixelEstimateSpp = 4;
 /// `stats` (may be null): its counts.
 Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,
-                            const AdjointGrid& grid, RenderStats* stats = nullptr);
+                            const AdjointGrid& grid, RenderStats* stats = nullptr,
+                            TileShare tiles = {});
 
 }  // namespace fogmap

@@ -213,12 +213,11 @@ float map_weight(const PixelSample& ps, int map_spp) {
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s) {
+                   RenderStats* stats, double* precompute_s, TileShare tiles) {
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed,
-        TileShare{settings.tile_index, settings.tile_count}, /*layered=*/true, quiet, stats,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true, quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));

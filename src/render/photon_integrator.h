@@ -1,16 +1,17 @@
 #pragma once
-// The photon-map renderer (DESIGN.md, Radiance estimates): camera rays follow specular surfaces
-// by recursion; at the first diffuse surface direct light comes from shadow rays (transmittance
-// by ratio tracking), caustics from the caustic map and indirect diffuse light from the global
-// map, shown directly or through final gathering with irradiance precomputed at photon positions
-// (Christensen 1999). Along the way camera rays march through media and gather single and multiple
-// scattering there (render/volume_gather.h). Each term goes to its own film layer. Deterministic
-// per seed: pixel (x, y), sample s draws from Rng(seed, y*width+x, s).
+// The photon-map renderer (docs/design.md, Radiance estimates): camera rays follow specular
+// surfaces by recursion; at the first diffuse surface direct light comes from shadow rays
+// (transmittance by ratio tracking), caustics from the caustic map and indirect diffuse light from
+// the global map, shown directly or through final gathering with irradiance precomputed at photon
+// positions (Christensen 1999). Along the way camera rays march through media and gather single and
+// multiple scattering there (render/volume_gather.h). Each term goes to its own film layer.
+// Deterministic per seed: pixel (x, y), sample s draws from Rng(seed, y*width+x, s).
 
 #include "photon/beam_tree.h"
 #include "photon/photon_pass.h"
 #include "render/film.h"
 #include "render/gather_params.h"
+#include "render/tiles.h"
 #include "render/volume_gather.h"
 
 #include <memory>
@@ -73,6 +74,6 @@ float map_weight(const PixelSample& ps, int map_spp);
 /// *precompute_s (may be null) gets the integrator's precomputation time.
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s);
+                   RenderStats* stats, double* precompute_s, TileShare tiles = {});
 
 }  // namespace fogmap

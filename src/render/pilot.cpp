@@ -5,7 +5,6 @@
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
 #include "render/tiles.h"
-#include "scene/plan.h"
 #include "scene/scene.h"
 
 #include <algorithm>
@@ -124,6 +123,7 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     };
 
     const Integrator kinds[] = {Integrator::Photon, Integrator::Path, Integrator::Guided};
+    const uint64_t volume_photons = volume_budget(desc), attempts = volume_attempts(desc);
     const ShareLayout share(width, height, pilot.tile_count);
     std::vector<std::vector<Color>> images;  // candidate c, seed k at 2c + k: the share's pixels
     for (const Integrator kind : kinds) {
@@ -134,20 +134,21 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
         for (uint64_t k = 0; k < 2; ++k) {
             SceneDesc d = desc;
             d.render.integrator = kind;
-            d.render.auto_media = false;
             d.render.spp = pilot.spp;
             d.render.seed = mix64(desc.render.seed ^ (0x70696c6f74000000ull + k));
-            d.render.tile_count = pilot.tile_count;
             d.progressive.spp = pilot.spp;  // one iteration (iteration_size): the share's samples
-            d.photons.global = scaled(d.photons.global);
-            d.photons.caustic = scaled(d.photons.caustic);
-            d.photons.volume =
-                scaled(kind == Integrator::Photon ? volume_budget(desc) : d.photons.volume);
-            d.photons.max_emitted = scaled(d.photons.max_emitted);
+            RunSetup run_setup = resolve_run(d);
+            run_setup.tiles = TileShare{0, pilot.tile_count};
+            PhotonSettings& p = run_setup.photons;
+            p.global = scaled(desc.photons.global);
+            p.caustic = scaled(desc.photons.caustic);
+            p.volume = scaled(kind == Integrator::Photon ? volume_photons
+                                                         : desc.photons.volume_or_default());
+            p.max_emitted = scaled(desc.photons.max_emitted);
             // The photon integrator's attempts rule, scaled; the guided tracer's volume map
             // closes by it too (else it would fill, in thin media after many times the work).
-            if (kind != Integrator::Path) d.photons.volume_attempts = scaled(volume_attempts(desc));
-            PipelineResult run = run_on_scene(d, scene, shared);
+            p.volume_attempts = kind != Integrator::Path ? scaled(attempts) : 0;
+            PipelineResult run = run_on_scene(run_setup, scene, shared);
             const Work w = work_units(run.report);
             work.render += 0.5 * w.render;
             work.photons += 0.5 * w.photons;
@@ -207,23 +208,28 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     return pilot;
 }
 
-SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared, bool* piloted) {
+RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
+                      SharedTables* shared, bool* piloted) {
     if (piloted) *piloted = false;
-    if (!desc.render.auto_media) return desc;
+    if (!setup.pilot) return setup;
+    setup.pilot = false;
+    // The rules below see the render as auto resolved it before any split into iterations.
+    SceneDesc desc = file;
+    desc.render.integrator = Integrator::Photon;
+    desc.volume.gather_depth = setup.run.volume.gather_depth;
     if (desc.progressive.enabled()) {
-        desc.render.auto_reason =
+        setup.set_reason(
             "auto: media under sun, sky or area lights, and progressive iterations, which the "
-            "photon integrator alone runs (no pilot)";
-        return desc;
+            "photon integrator alone runs (no pilot)");
+        return setup;
     }
     const Pilot share = pilot_share(desc);
     if (share.spp > kPilotMaxShare * desc.render.spp) {
-        desc.render.integrator = Integrator::Photon;
-        desc.render.auto_reason =
+        setup.set_reason(
             "auto: media under sun, sky or area lights, and " + std::to_string(desc.render.spp) +
             " spp, where a pilot (" + std::to_string(share.spp) +
-            " spp) would cost more than the render: photon without one" + map_end_words(desc);
-        return desc;
+            " spp) would cost more than the render: photon without one" + map_end_words(desc));
+        return setup;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);
     if (piloted) *piloted = true;
@@ -240,13 +246,14 @@ SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared, b
                   "; a pilot (1 in %d tiles, %d spp, two seeds) measured relMSE x work relative "
                   "to the best: ",
                   pilot.tile_count, pilot.spp);
-    if (best.integrator == Integrator::Guided)  // as piloted (before the integrator changes)
-        desc.photons.volume_attempts = volume_attempts(desc);
-    desc.render.integrator = best.integrator;
-    desc.render.auto_reason = "auto: media under sun, sky or area lights" + std::string(text) +
-                              scores + " -> " + to_string(best.integrator);
-    if (best.integrator == Integrator::Photon) desc.render.auto_reason += map_end_words(desc);
-    return desc;
+    std::string reason = "auto: media under sun, sky or area lights" + std::string(text) + scores +
+                         " -> " + to_string(best.integrator);
+    if (best.integrator == Integrator::Photon) reason += map_end_words(desc);
+    RunSetup picked = resolve_picked(file, setup, best.integrator, reason);
+    // As piloted: the guided tracer's volume map closes by the photon integrator's attempts rule.
+    if (best.integrator == Integrator::Guided)
+        picked.photons.volume_attempts = volume_attempts(desc);
+    return picked;
 }
 
 }  // namespace fogmap

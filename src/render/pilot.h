@@ -13,6 +13,7 @@
 // thread and rank count, as the image must be. The guided tracer's volume map closes by the photon
 // integrator's attempts rule, in the pilot and when picked.
 
+#include "render/run_setup.h"
 #include "scene/scene_desc.h"
 
 #include <string>
@@ -59,17 +60,17 @@ Pilot pilot_share(const SceneDesc& desc);
 /// it, pilot_auto picks the photon integrator without a pilot.
 inline constexpr double kPilotMaxShare = 0.25;
 
-/// Runs the pilot of `desc` (render.integrator auto, media under sun, sky or area lights:
-/// render.auto_media) on `scene`, loaded from it. Deterministic for a given description.
+/// Runs the pilot of `desc` (render.integrator photon as auto resolved it for media under sun,
+/// sky or area lights) on `scene`, loaded from it. Deterministic for a given description.
 /// `shared` (may be null): the tables the pilot's runs share, and leave to the render.
 Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared = nullptr);
 
-/// `desc` with the pilot's pick as its integrator and the measured reason appended to
-/// render.auto_reason; progressive runs keep the photon integrator (the others have no
-/// iterations) without a pilot, and so do renders of few samples (kPilotMaxShare). Any
-/// description without render.auto_media is returned unchanged. `piloted` (may be null): set to
-/// whether a pilot ran.
-SceneDesc pilot_auto(SceneDesc desc, const Scene& scene, SharedTables* shared = nullptr,
-                     bool* piloted = nullptr);
+/// `setup` (resolve_run of `file`) with auto's pick settled: where setup.pilot, the pilot's pick
+/// re-resolved from `file`, the measured reason appended; progressive runs keep the photon
+/// integrator (the others have no iterations) without a pilot, and so do renders of few samples
+/// (kPilotMaxShare). A setup without a pilot pending is returned unchanged. `piloted` (may be
+/// null): set to whether a pilot ran.
+RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
+                      SharedTables* shared = nullptr, bool* piloted = nullptr);
 
 }  // namespace fogmap

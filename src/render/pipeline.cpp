@@ -4,9 +4,7 @@
 #include "core/ranks.h"
 #include "core/rng.h"
 #include "core/timer.h"
-#include "core/world_range.h"
 
-#include <nlohmann/json.hpp>
 #include "photon/photon_pass.h"
 #include "render/camera.h"
 #include "render/gather_params.h"
@@ -14,9 +12,10 @@
 #include "render/path_tracer.h"
 #include "render/photon_integrator.h"
 #include "render/pilot.h"
-#include "scene/plan.h"
+#include "render/run_setup.h"
 #include "scene/scene.h"
-#include "scene/scene_desc_json.h"
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -85,7 +84,36 @@ struct RunOptions {
     SharedTables* shared = nullptr;
 };
 
-PipelineResult run_loaded(const SceneDesc& desc, const Scene& scene, const RunOptions& o);
+/// The counts a run sums over iterations and ranks, in the order a checkpoint stores them.
+struct Counts {
+    int64_t iterations = 0;  ///< in this rank's sum
+    int64_t samples = 0, rays = 0, nonfinite = 0, depth_capped = 0, photons_emitted = 0,
+            photons_capped = 0, clamped = 0, steps = 0, lookups = 0, gathered = 0;
+
+    std::vector<int64_t> pack() const {
+        return {iterations,     samples, rays,  nonfinite, depth_capped, photons_emitted,
+                photons_capped, clamped, steps, lookups,   gathered};
+    }
+    /// A checkpoint's or a reduced list (the length pack gives).
+    static Counts unpack(const std::vector<int64_t>& c) {
+        Counts n;
+        int64_t* const fields[] = {&n.iterations,     &n.samples,      &n.rays,
+                                   &n.nonfinite,      &n.depth_capped, &n.photons_emitted,
+                                   &n.photons_capped, &n.clamped,      &n.steps,
+                                   &n.lookups,        &n.gathered};
+        for (size_t i = 0; i < std::size(fields) && i < c.size(); ++i) *fields[i] = c[i];
+        return n;
+    }
+    void add(const RenderStats& s) {
+        samples += int64_t(s.samples);
+        rays += int64_t(s.rays);
+        nonfinite += int64_t(s.nonfinite);
+        depth_capped += int64_t(s.capped);
+        steps += int64_t(s.steps);
+        lookups += int64_t(s.lookups);
+        gathered += int64_t(s.gathered);
+    }
+};
 
 /// The guide's settings: its radius is the volume gather's.
 GuideSettings guide_settings(const GatherParams& gather, int vertices) {
@@ -95,396 +123,430 @@ GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     return g;
 }
 
+/// One run on a loaded scene, as named stages: begin (the Plan), then per round run one
+/// iteration and accumulate it, then reduce over ranks and finish the report.
+class RunLoop {
+public:
+    RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o);
+    PipelineResult run();
+
+private:
+    void warn(const std::string& text);
+    void begin();
+    PhotonMaps trace_maps(uint64_t seed, int i, IterationReport* it);
+    Film run_iteration(int i, IterationReport* it, RenderStats* stats);
+    Film render_guided(const PhotonMaps& maps, const GatherParams& gather,
+                       const RenderSettings& settings, RenderStats* stats);
+    Film render_map_end(const PhotonMaps& maps, const GatherParams& gather,
+                        const RenderSettings& settings, RenderStats* stats);
+    void accumulate(Film film, const RenderStats& stats, IterationReport it);
+    bool last_round(int round, double loop_start_s);
+    void gather_to_root();
+    bool reduce();
+    void finish_report();
+    RenderSettings iteration_settings(int i) const;
+
+    const RunSetup& setup_;
+    const SceneDesc& desc_;
+    const Scene& scene_;
+    const RunOptions& o_;
+    Ranks* const ranks_;
+    const int n_ranks_, my_rank_;
+    const bool root_, speak_, quiet_, progressive_, quiet_pass_;
+    const Timer own_timer_;
+    const Timer& timer_;
+    const int base_;  ///< iterations of the checkpoint resumed from
+    PipelineResult out_;
+    Report& report_ = out_.report;
+    Counts counts_;
+    FixedFilm sum_;  ///< progressive iterations, summed in fixed point (film.h)
+    int own_ = 0;    ///< iterations this rank ran itself
+    double checkpointed_s_ = 0.0;
+    std::optional<GatherParams> first_gather_;
+    std::optional<SigmaTable> sigma_table_;  ///< MapEnd: σ_s over boxes, for every iteration
+    VolumeMapEnd::Buffers end_buffers_;  ///< MapEnd: each iteration's grids in the last's memory
+    SharedTables own_tables_;
+    std::optional<SunShadows>& sun_shadows_;  ///< MapEnd: every iteration's, and shared runs'
+};
+
+RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
+    : setup_(setup),
+      desc_(setup.run),
+      scene_(scene),
+      o_(o),
+      ranks_(o.ranks),
+      n_ranks_(o.ranks ? o.ranks->size() : 1),
+      my_rank_(o.ranks ? o.ranks->rank() : 0),
+      root_(my_rank_ == 0),
+      speak_(root_ && !o.silent),
+      quiet_(o.quiet || !speak_),
+      progressive_(setup.progressive),
+      quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
+      timer_(o.timer ? *o.timer : own_timer_),
+      base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
+      sun_shadows_((o.shared ? o.shared : &own_tables_)->sun) {}
+
+void RunLoop::warn(const std::string& text) {
+    if (speak_) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+    report_.warnings.push_back(text);
+}
+
+/// The report's first entries and the Plan, printed unless quiet.
+void RunLoop::begin() {
+    report_.ranks = n_ranks_;
+    add_phase(&report_, "load", o_.load_s);
+    if (o_.pilot_s > 0.0) add_phase(&report_, "pilot", o_.pilot_s);
+    for (const std::string& w : scene_.warnings) warn(w);
+    if (!setup_.ignored.empty()) {
+        std::string keys;
+        for (const std::string& k : setup_.ignored) keys += (keys.empty() ? "" : ", ") + k;
+        warn(std::string(describe(setup_.method)) + " does not read " + keys +
+             ", set in the scene: other integrators' settings");
+    }
+    Plan plan = setup_.plan;
+    describe_volume_light(scene_, &plan.volume_light);
+    report_.plan_text = plan_text(plan);
+    report_.plan = plan_json(plan);
+    if (!quiet_) std::fprintf(stderr, "%s", report_.plan_text.c_str());
+    if (base_ > 0 && root_) {
+        sum_ = o_.checkpoints->resume->sum;
+        counts_ = Counts::unpack(o_.checkpoints->resume->counts);
+        sum_.clamped = uint64_t(counts_.clamped);
+    }
+    // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
+    // does not run it traces its photons for that alone.
+    if (progressive_ && (my_rank_ != 0 || base_ > 0)) {
+        PhotonPassResult pass = trace_photons(scene_, setup_.plan, setup_.photons, desc_.march,
+                                              iteration_seed(desc_.render.seed, 1, true), true);
+        first_gather_ = gather_params(desc_, scene_, build_trees(std::move(pass)), true);
+    }
+}
+
+/// Iteration i's settings: its seed, and the tiles this process renders.
+RenderSettings RunLoop::iteration_settings(int i) const {
+    RenderSettings settings = desc_.render;
+    settings.seed = iteration_seed(desc_.render.seed, i, progressive_);
+    return settings;
+}
+
+/// The photon pass of iteration i and its kd-trees, reported (streams and warnings once).
+PhotonMaps RunLoop::trace_maps(uint64_t seed, int i, IterationReport* it) {
+    // A plain render is shared: every rank traces a share of each photon round and builds the
+    // same maps (photon/photon_pass.h), then renders a share of the tiles.
+    PhotonPassResult pass = trace_photons(scene_, setup_.plan, setup_.photons, desc_.march, seed,
+                                          quiet_pass_, progressive_ ? nullptr : ranks_);
+    if (i == 1) {
+        for (const std::string& w : pass.warnings) warn(w);
+        for (const StreamReport& s : pass.streams)
+            report_.streams.push_back(
+                {{"name", s.name},
+                 {"attempts", s.attempts},
+                 {"photons", s.photons},
+                 {"media_share", s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
+                 {"longest_path", s.longest},
+                 {"stored",
+                  {{"global", s.stored[0]}, {"caustic", s.stored[1]}, {"volume", s.stored[2]}}}});
+    }
+    add_phase(&report_, "photon pass", pass.time_s);
+    if (pass.exchange_s > 0.0) add_phase(&report_, "photon exchange", pass.exchange_s);
+    counts_.photons_emitted += int64_t(pass.emitted);
+    report_.photon_steps += pass.steps;
+    report_.photon_interactions += pass.interactions;
+    counts_.photons_capped += int64_t(pass.capped);
+    report_.photons_capped_power += pass.capped_power;
+    PhotonMaps maps = build_trees(std::move(pass));
+    const std::vector<MapReport> built = map_reports(maps);
+    for (const MapReport& m : built) {
+        add_phase(&report_, "build " + m.name, m.build_s);
+        it->photon_bytes += m.bytes;
+    }
+    if (report_.maps.empty()) report_.maps = built;  // one iteration's maps
+    return maps;
+}
+
+/// The guided tracer: camera paths split by the map's light to come (AdjointSplit), directions
+/// guided at the first render.guide_vertices medium vertices.
+Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
+                            const RenderSettings& settings, RenderStats* stats) {
+    std::optional<VolumeGuide> guide;
+    std::optional<AdjointGrid> grid;
+    Image pixels;
+    AdjointSplit split;
+    if (maps.volume) {
+        if (desc_.render.guide_vertices > 0)
+            guide.emplace(*maps.volume, guide_settings(gather, desc_.render.guide_vertices));
+        const Timer precompute;
+        grid.emplace(*maps.volume, scene_.media, gather.volume.radius);
+        RenderStats estimate;
+        pixels = render_pixel_estimate(scene_, settings, *grid, &estimate, setup_.tiles);
+        report_.estimate_events += estimate.steps + estimate.rays + estimate.lookups;
+        report_.precompute_nodes += grid->evaluations();
+        split = AdjointSplit{&*grid, &pixels};
+        add_phase(&report_, "precompute", precompute.seconds());
+    }
+    return render_path(scene_, settings, quiet_pass_, stats, guide ? &*guide : nullptr, nullptr,
+                       nullptr, grid ? &split : nullptr, setup_.tiles);
+}
+
+/// Camera paths traced as the path tracer does, ended in the volume map.
+Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
+                             const RenderSettings& settings, RenderStats* stats) {
+    const Timer precompute;
+    std::optional<VolumeMapEnd> end;
+    if (maps.volume) {
+        // Where the ball holds many photons, gather about k of them (VolumeMapEnd's
+        // AdaptiveRadius), k shrinking with the radius's cube; a radius the scene sets is kept.
+        const float r1 = first_gather_->volume.radius;
+        const float k = desc_.volume.radius > 0.0f ? 0.0f
+                                                   : float(first_gather_->volume.k) *
+                                                         std::pow(gather.volume.radius / r1, 3.0f);
+        end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
+                    desc_.volume.gather_tau, &end_buffers_);
+        report_.precompute_nodes += end->nodes();
+        if (end->wants_table()) {
+            if (!sigma_table_) {
+                sigma_table_.emplace(scene_.media, 2.0f * r1);
+                report_.precompute_nodes += sigma_table_->nodes();
+            }
+            end->set_table(&*sigma_table_);
+        }
+    }
+    if (!sun_shadows_) {
+        sun_shadows_.emplace(scene_.lights, scene_.media, desc_.volume.sun_grid);
+        report_.precompute_nodes += sun_shadows_->nodes();
+    }
+    add_phase(&report_, "precompute", precompute.seconds());
+    return render_path(scene_, settings, quiet_pass_, stats, nullptr, end ? &*end : nullptr,
+                       &*sun_shadows_, nullptr, setup_.tiles);
+}
+
+/// Iteration i: the photon pass where the method has maps, then the method's render.
+Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
+    const RenderSettings settings = iteration_settings(i);
+    if (setup_.method == Method::Path)
+        return render_path(scene_, settings, quiet_pass_, stats, nullptr, nullptr, nullptr, nullptr,
+                           setup_.tiles);
+    const PhotonMaps maps = trace_maps(settings.seed, i, it);
+    if (i == 1) first_gather_ = gather_params(desc_, scene_, maps, progressive_);
+    const GatherParams gather = gather_at_iteration(*first_gather_, i, desc_.progressive.alpha);
+    it->radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
+    switch (setup_.method) {
+        case Method::Guided:
+            return render_guided(maps, gather, settings, stats);
+        case Method::MapEnd:
+            return render_map_end(maps, gather, settings, stats);
+        default: {
+            double precompute_s = 0.0;
+            Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
+                                      stats, &precompute_s, setup_.tiles);
+            if (precompute_s > 0.0) add_phase(&report_, "precompute", precompute_s);
+            return film;
+        }
+    }
+}
+
+/// Adds an iteration's film and counts to the run's, and its line to the report.
+void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it) {
+    if (progressive_)
+        sum_.add(film);
+    else
+        out_.film = std::move(film);
+    add_phase(&report_, "render", stats.render_s);
+    counts_.add(stats);
+    report_.render_s += stats.render_s;
+    report_.threads = stats.threads;
+    it.elapsed_s = timer_.seconds();
+    // The running error: of the mean so far, known to a lone rank that started at 1.
+    const bool running_error = o_.reference && n_ranks_ == 1 && base_ == 0;
+    if (running_error && progressive_)
+        it.rel_mse = image_error(sum_.mean(int(counts_.iterations)).beauty, *o_.reference).rel_mse;
+    report_.iterations.push_back(it);
+    if (progressive_ && !quiet_)
+        std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
+                     it.index, it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
+                     running_error ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
+}
+
+/// After round `round`: whether the run stops, the same answer on every rank (the count is known
+/// to all, the time budget agreed on); writes a checkpoint when one is due.
+bool RunLoop::last_round(int round, double loop_start_s) {
+    if (!progressive_) return true;
+    const ProgressiveDesc& p = desc_.progressive;
+    const int ran = base_ + (round + 1) * n_ranks_;
+    if (p.iterations > 0 && ran >= p.iterations) return true;
+    // Out of time when another round would end further past the budget than this one ends
+    // before it (a round taking the mean time so far): the run ends within half a round of it.
+    const double now_s = timer_.seconds(), round_s = (now_s - loop_start_s) / (round + 1);
+    const bool out_of_time = p.time_budget > 0.0f && now_s + 0.5 * round_s >= p.time_budget;
+    if (ranks_ ? ranks_->any(out_of_time) : out_of_time) return true;
+    // A checkpoint after a whole round: every iteration up to `ran` is in some rank's sum.
+    const Checkpoints* const c = o_.checkpoints;
+    if (c && c->every_s > 0.0) {
+        const bool due = timer_.seconds() - checkpointed_s_ >= c->every_s;
+        if (ranks_ ? ranks_->any(due) : due) {
+            gather_to_root();
+            if (root_) c->write(Checkpoint{0, ran, counts_.pack(), sum_});
+            checkpointed_s_ = timer_.seconds();
+        }
+    }
+    return false;
+}
+
+/// Every rank's progressive sum and counts into rank 0's; the other ranks start again from zero.
+void RunLoop::gather_to_root() {
+    counts_.clamped = int64_t(sum_.clamped);
+    std::vector<int64_t> c = counts_.pack();
+    if (sum_.values.empty())
+        sum_.add(Film(desc_.camera.width, desc_.camera.height, setup_.layered()));
+    if (ranks_) {
+        const Timer reduce;
+        ranks_->sum_to_root(&c);
+        ranks_->sum_to_root(&sum_.values);
+        add_phase(&report_, "reduce", reduce.seconds());
+    }
+    if (!root_) {
+        c.assign(c.size(), 0);
+        std::fill(sum_.values.begin(), sum_.values.end(), 0);
+    }
+    counts_ = Counts::unpack(c);
+    sum_.clamped = uint64_t(counts_.clamped);
+}
+
+/// The ranks' films and counts onto rank 0; false on the other ranks (they hold no result).
+bool RunLoop::reduce() {
+    if (progressive_) {
+        gather_to_root();
+        if (!root_) return false;
+        // The last checkpoint holds every iteration: a later --resume with a larger budget
+        // continues from here.
+        const Checkpoints* const c = o_.checkpoints;
+        if (c && c->every_s > 0.0) c->write({0, int(counts_.iterations), counts_.pack(), sum_});
+        if (sum_.clamped > 0)
+            warn(std::to_string(sum_.clamped) +
+                 " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
+                 "clamped");
+        out_.film = sum_.mean(int(counts_.iterations));
+        return true;
+    }
+    if (n_ranks_ > 1) {
+        // Each pixel is one rank's and 0 (bits 0) on the others: summing the values' bits as
+        // integers gives rank 0 the very floats one process renders.
+        std::vector<int64_t> c = counts_.pack();
+        std::vector<int64_t> bits = film_bits(out_.film);
+        const Timer reduce;
+        ranks_->sum_to_root(&c);
+        ranks_->sum_to_root(&bits);
+        add_phase(&report_, "reduce", reduce.seconds());
+        if (!root_) return false;
+        set_film_bits(bits, &out_.film);
+        const int64_t photons_emitted = counts_.photons_emitted,
+                      photons_capped = counts_.photons_capped;
+        counts_ = Counts::unpack(c);
+        // Every rank traced a share of the same photon rounds and counted them all.
+        counts_.photons_emitted = photons_emitted;
+        counts_.photons_capped = photons_capped;
+    }
+    if (o_.reference)
+        report_.iterations.back().rel_mse = image_error(out_.film.beauty, *o_.reference).rel_mse;
+    return true;
+}
+
+/// Rank 0's report from its counts and film.
+void RunLoop::finish_report() {
+    Report& r = report_;
+    r.samples = uint64_t(counts_.samples);
+    r.rays = uint64_t(counts_.rays);
+    r.nonfinite = uint64_t(counts_.nonfinite);
+    r.depth_capped = uint64_t(counts_.depth_capped);
+    r.photons_emitted = uint64_t(counts_.photons_emitted);
+    r.photons_capped = uint64_t(counts_.photons_capped);
+    r.steps = uint64_t(counts_.steps);
+    r.lookups = uint64_t(counts_.lookups);
+    r.gathered = uint64_t(counts_.gathered);
+    if (r.samples > 0 && r.depth_capped > r.samples / 1000) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "render.max_depth = %d cut %.2g%% of the camera samples while they still "
+                      "carried light; raise it (the image misses that light)",
+                      desc_.render.max_depth, 100.0 * double(r.depth_capped) / r.samples);
+        warn(text);
+    }
+    if (r.nonfinite > 0)
+        warn(std::to_string(r.nonfinite) + " of " + std::to_string(r.samples) +
+             " camera samples were not finite (NaN or infinite) and were dropped; the pixels "
+             "they fell in are darker");
+    r.scene = desc_.path;
+    r.settings = settings_json(setup_);
+    r.width = out_.film.beauty.width;
+    r.height = out_.film.beauty.height;
+    r.spp = desc_.render.spp * (progressive_ ? int(counts_.iterations) : 1);
+    r.photons_capped_power /= std::max(own_, 1);  // the mean share over rank 0's iterations
+    r.mean = out_.film.beauty.mean();
+}
+
+PipelineResult RunLoop::run() {
+    const ThreadLimit threads(desc_.render.threads);
+    begin();
+    const double loop_start_s = timer_.seconds();
+    for (int round = 0;; ++round) {
+        // Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the checkpoint's.
+        const int i = progressive_ ? base_ + round * n_ranks_ + my_rank_ + 1 : 1;
+        const int cap = desc_.progressive.iterations;
+        if (!progressive_ || !(cap > 0 && i > cap)) {
+            ++counts_.iterations;
+            ++own_;
+            IterationReport it;
+            it.index = i;
+            RenderStats stats;
+            Film film = run_iteration(i, &it, &stats);
+            accumulate(std::move(film), stats, it);
+        }
+        if (last_round(round, loop_start_s)) break;
+    }
+    if (reduce()) finish_report();
+    return std::move(out_);
+}
+
+PipelineResult run_loaded(const RunSetup& setup, const Scene& scene, const RunOptions& o) {
+    return RunLoop(setup, scene, o).run();
+}
+
 }  // namespace
 
 uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
     return progressive ? mix64(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(i)) : seed;
 }
 
-PipelineResult run_pipeline(const SceneDesc& scene_desc, bool quiet, const Image* reference,
-                            Ranks* ranks, const Checkpoints* checkpoints) {
-    SceneDesc desc = choose_integrator(scene_desc);
+PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference, Ranks* ranks,
+                            const Checkpoints* checkpoints, const RunSetup* decided) {
+    RunSetup setup = decided ? *decided : resolve_run(desc);
     const Timer timer;
     std::unique_ptr<const Scene> scene;
-    agree_on_input(ranks, [&] { scene = load_scene(desc); });
-    const double load_s = timer.seconds();
-    double pilot_s = 0.0;
-    SharedTables shared;           // the pilot's sun grids serve the render
-    if (desc.render.auto_media) {  // the same choice on every rank: the pilot is deterministic
+    agree_on_input(ranks, [&] { scene = load_scene(setup.run); });
+    RunOptions o;
+    o.load_s = timer.seconds();
+    SharedTables shared;  // the pilot's sun grids serve the render
+    if (setup.pilot) {    // the same choice on every rank: the pilot is deterministic
         const Timer pilot;
         bool piloted = false;  // a phase of its own only when it ran
-        desc = pilot_auto(std::move(desc), *scene, &shared, &piloted);
-        if (piloted) pilot_s = pilot.seconds();
+        setup = settle_pilot(desc, std::move(setup), *scene, &shared, &piloted);
+        if (piloted) o.pilot_s = pilot.seconds();
     }
-    RunOptions o;
+    if (ranks && !setup.progressive) setup.tiles = TileShare{ranks->rank(), ranks->size()};
     o.quiet = quiet;
     o.reference = reference;
     o.ranks = ranks;
     o.checkpoints = checkpoints;
     o.timer = &timer;
-    o.load_s = load_s;
-    o.pilot_s = pilot_s;
     o.shared = &shared;
-    return run_loaded(desc, *scene, o);
+    return run_loaded(setup, *scene, o);
 }
 
-PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+PipelineResult run_on_scene(const RunSetup& setup, const Scene& scene, SharedTables* shared) {
     RunOptions o;
     o.quiet = o.silent = true;
     o.shared = shared;
-    return run_loaded(desc, scene, o);
+    return run_loaded(setup, scene, o);
 }
-
-namespace {
-
-PipelineResult run_loaded(const SceneDesc& loaded, const Scene& scene_ref, const RunOptions& o) {
-    const Image* const reference = o.reference;
-    Ranks* const ranks = o.ranks;
-    const Checkpoints* const checkpoints = o.checkpoints;
-    const int n_ranks = ranks ? ranks->size() : 1, my_rank = ranks ? ranks->rank() : 0;
-    const bool root = my_rank == 0;
-    const bool speak = root && !o.silent;
-    const bool quiet = o.quiet || !speak;  // rank 0 alone speaks
-    PipelineResult out;
-    Report& report = out.report;
-    report.ranks = n_ranks;
-    const auto warn = [&](const std::string& text) {
-        if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
-        report.warnings.push_back(text);
-    };
-    const Timer own_timer;
-    const Timer& timer = o.timer ? *o.timer : own_timer;
-    // A photon render's iterations take iteration_size's samples, its photon budgets with them;
-    // a plain render it splits is a progressive run of so many iterations.
-    SceneDesc desc = loaded;
-    std::string iteration_text;
-    if (desc.render.integrator == Integrator::Photon) {
-        const IterationSize size = iteration_size(desc);
-        if (desc.progressive.enabled() || size.iterations > 1) {
-            desc.render.spp = desc.progressive.spp = size.spp;
-            desc.progressive.iterations = size.iterations;
-            iteration_text = "; " + size.reason;
-        }
-    }
-    Plan plan = make_plan(desc);
-    plan.integrator.reason += iteration_text;
-    const Scene* const scene = &scene_ref;
-    add_phase(&report, "load", o.load_s);
-    if (o.pilot_s > 0.0) add_phase(&report, "pilot", o.pilot_s);
-    for (const std::string& w : scene->warnings) warn(w);
-    describe_volume_light(*scene, &plan.volume_light);
-    report.plan_text = plan_text(plan);
-    report.plan = plan_json(plan);
-    if (!quiet) std::fprintf(stderr, "%s", report.plan_text.c_str());
-
-    const ThreadLimit threads(desc.render.threads);
-    const bool photon = desc.render.integrator == Integrator::Photon;
-    const bool guided = desc.render.integrator == Integrator::Guided;
-    // Camera paths traced as the path tracer does, ended in the volume map: an unlayered film.
-    const bool map_end = photon && desc.volume.gather_depth > 0;
-    // The photon beams estimate needs the photon paths' beams (their free paths then delta-tracked:
-    // photon/photon_pass.h).
-    PhotonSettings photons = desc.photons;
-    photons.volume_beams = photon && desc.volume.estimator == VolumeEstimator::PhotonBeams;
-    if (photons.volume_attempts == 0) {                   // unless set (auto's pilot)
-        photons.volume_attempts = volume_attempts(desc);  // the volume map's share of the work
-        photons.volume = volume_budget(desc);
-    }
-    const bool progressive = photon && desc.progressive.enabled();
-    const bool quiet_pass = quiet || progressive;  // progressive runs print one line per iteration
-    std::optional<GatherParams> first_gather;
-    std::optional<SigmaTable> sigma_table;  // map_end: σ_s over boxes, for every iteration
-    VolumeMapEnd::Buffers end_buffers;      // map_end: each iteration's grids in the last's memory
-    // map_end: the suns' optical depth, every iteration (and every run sharing the tables)
-    SharedTables own_tables;
-    std::optional<SunShadows>& sun_shadows = (o.shared ? o.shared : &own_tables)->sun;
-    // Progressive iterations are summed in fixed point (film.h): the same bits whatever rank ran
-    // which iteration. Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the
-    // `base` iterations of the checkpoint resumed from.
-    FixedFilm sum;
-    int mine = 0;  // iterations in this rank's sum
-    const ProgressiveDesc& p = desc.progressive;
-    const int base = checkpoints && checkpoints->resume ? checkpoints->resume->iterations : 0;
-    // Counts summed over ranks with the film; rank 0 holds the totals after gather_to_root.
-    const auto counts = [&] {
-        return std::vector<int64_t>{mine,
-                                    int64_t(report.samples),
-                                    int64_t(report.rays),
-                                    int64_t(report.nonfinite),
-                                    int64_t(report.depth_capped),
-                                    int64_t(report.photons_emitted),
-                                    int64_t(report.photons_capped),
-                                    int64_t(sum.clamped),
-                                    int64_t(report.steps),
-                                    int64_t(report.lookups),
-                                    int64_t(report.gathered)};
-    };
-    const auto set_counts = [&](const std::vector<int64_t>& c) {
-        mine = int(c[0]);
-        report.samples = uint64_t(c[1]);
-        report.rays = uint64_t(c[2]);
-        report.nonfinite = uint64_t(c[3]);
-        report.depth_capped = uint64_t(c[4]);
-        report.photons_emitted = uint64_t(c[5]);
-        report.photons_capped = uint64_t(c[6]);
-        sum.clamped = uint64_t(c[7]);
-        report.steps = uint64_t(c[8]);
-        report.lookups = uint64_t(c[9]);
-        report.gathered = uint64_t(c[10]);
-    };
-    // Every rank's sum and counts into rank 0's; the other ranks start again from zero.
-    const auto gather_to_root = [&] {
-        std::vector<int64_t> c = counts();
-        if (sum.values.empty())
-            sum.add(Film(desc.camera.width, desc.camera.height, photon && !map_end));
-        if (ranks) {
-            const Timer reduce;
-            ranks->sum_to_root(&c);
-            ranks->sum_to_root(&sum.values);
-            add_phase(&report, "reduce", reduce.seconds());
-        }
-        if (root) {
-            set_counts(c);
-        } else {
-            set_counts(std::vector<int64_t>(c.size(), 0));
-            std::fill(sum.values.begin(), sum.values.end(), 0);
-        }
-    };
-    if (base > 0 && root) {
-        sum = checkpoints->resume->sum;
-        set_counts(checkpoints->resume->counts);
-    }
-    // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
-    // does not run it traces its photons for that alone.
-    if (progressive && (my_rank != 0 || base > 0)) {
-        PhotonPassResult pass = trace_photons(*scene, plan, photons, desc.march,
-                                              iteration_seed(desc.render.seed, 1, true), true);
-        first_gather = gather_params(desc, *scene, build_trees(std::move(pass)), true);
-    }
-    // A plain render is shared: every rank traces a share of each photon round and builds the
-    // same maps (photon/photon_pass.h), then renders a share of the tiles.
-    Ranks* const pass_ranks = progressive ? nullptr : ranks;
-    double checkpointed_s = 0.0;
-    int own = 0;  // iterations this rank ran itself
-    const double loop_start_s = timer.seconds();
-    for (int round = 0;; ++round) {
-        const int i = progressive ? base + round * n_ranks + my_rank + 1 : 1;
-        const bool runs = !progressive || !(p.iterations > 0 && i > p.iterations);
-        if (runs) {
-            ++mine;
-            ++own;
-            RenderSettings settings = desc.render;
-            settings.seed = iteration_seed(desc.render.seed, i, progressive);
-            if (!progressive && ranks) {  // else the description's share (auto's pilot)
-                settings.tile_index = my_rank;
-                settings.tile_count = n_ranks;
-            }
-            IterationReport it;
-            it.index = i;
-            RenderStats stats;
-            Film film;
-            if (photon || guided) {
-                PhotonPassResult pass = trace_photons(*scene, plan, photons, desc.march,
-                                                      settings.seed, quiet_pass, pass_ranks);
-                if (i == 1) {
-                    for (const std::string& w : pass.warnings) warn(w);
-                    for (const StreamReport& s : pass.streams)
-                        report.streams.push_back(
-                            {{"name", s.name},
-                             {"attempts", s.attempts},
-                             {"photons", s.photons},
-                             {"media_share", s.photons > 0 ? double(s.met_media) / s.photons : 0.0},
-                             {"longest_path", s.longest},
-                             {"stored",
-                              {{"global", s.stored[0]},
-                               {"caustic", s.stored[1]},
-                               {"volume", s.stored[2]}}}});
-                }
-                add_phase(&report, "photon pass", pass.time_s);
-                if (pass.exchange_s > 0.0) add_phase(&report, "photon exchange", pass.exchange_s);
-                report.photons_emitted += pass.emitted;
-                report.photon_steps += pass.steps;
-                report.photon_interactions += pass.interactions;
-                report.photons_capped += pass.capped;
-                report.photons_capped_power += pass.capped_power;
-                const PhotonMaps maps = build_trees(std::move(pass));
-                const std::vector<MapReport> built = map_reports(maps);
-                for (const MapReport& m : built) {
-                    add_phase(&report, "build " + m.name, m.build_s);
-                    it.photon_bytes += m.bytes;
-                }
-                if (report.maps.empty()) report.maps = built;  // one iteration's maps
-                if (i == 1) first_gather = gather_params(desc, *scene, maps, progressive);
-                const GatherParams gather = gather_at_iteration(*first_gather, i, p.alpha);
-                it.radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
-                if (guided) {
-                    // Splitting by the map's light to come (AdjointSplit), directions guided at
-                    // the first render.guide_vertices medium vertices.
-                    std::optional<VolumeGuide> guide;
-                    std::optional<AdjointGrid> grid;
-                    Image pixels;
-                    AdjointSplit split;
-                    if (maps.volume) {
-                        if (desc.render.guide_vertices > 0)
-                            guide.emplace(*maps.volume,
-                                          guide_settings(gather, desc.render.guide_vertices));
-                        const Timer precompute;
-                        grid.emplace(*maps.volume, scene->media, gather.volume.radius);
-                        RenderStats estimate;
-                        pixels = render_pixel_estimate(*scene, settings, *grid, &estimate);
-                        report.estimate_events += estimate.steps + estimate.rays + estimate.lookups;
-                        report.precompute_nodes += grid->evaluations();
-                        split = AdjointSplit{&*grid, &pixels};
-                        add_phase(&report, "precompute", precompute.seconds());
-                    }
-                    film =
-                        render_path(*scene, settings, quiet_pass, &stats, guide ? &*guide : nullptr,
-                                    nullptr, nullptr, grid ? &split : nullptr);
-                } else if (map_end) {
-                    const Timer precompute;
-                    std::optional<VolumeMapEnd> end;
-                    if (maps.volume) {
-                        // Where the ball holds many photons, gather about k of them
-                        // (VolumeMapEnd's AdaptiveRadius), k shrinking with the radius's cube;
-                        // a radius the scene sets is kept everywhere.
-                        const float r1 = first_gather->volume.radius;
-                        const float k = desc.volume.radius > 0.0f
-                                            ? 0.0f
-                                            : float(first_gather->volume.k) *
-                                                  std::pow(gather.volume.radius / r1, 3.0f);
-                        end.emplace(*maps.volume, scene->media, gather.volume.radius,
-                                    gather.gather_depth, k, desc.volume.gather_tau, &end_buffers);
-                        report.precompute_nodes += end->nodes();
-                        if (end->wants_table()) {
-                            if (!sigma_table) {
-                                sigma_table.emplace(scene->media, 2.0f * r1);
-                                report.precompute_nodes += sigma_table->nodes();
-                            }
-                            end->set_table(&*sigma_table);
-                        }
-                    }
-                    if (!sun_shadows) {
-                        sun_shadows.emplace(scene->lights, scene->media, desc.volume.sun_grid);
-                        report.precompute_nodes += sun_shadows->nodes();
-                    }
-                    add_phase(&report, "precompute", precompute.seconds());
-                    film = render_path(*scene, settings, quiet_pass, &stats, nullptr,
-                                       end ? &*end : nullptr, &*sun_shadows);
-                } else {
-                    double precompute_s = 0.0;
-                    film = render_photon(*scene, maps, gather, desc.march, settings, quiet_pass,
-                                         &stats, &precompute_s);
-                    if (precompute_s > 0.0) add_phase(&report, "precompute", precompute_s);
-                }
-            } else {
-                film = render_path(*scene, settings, quiet_pass, &stats);
-            }
-            if (progressive)
-                sum.add(film);
-            else
-                out.film = std::move(film);
-            add_phase(&report, "render", stats.render_s);
-            report.samples += stats.samples;
-            report.rays += stats.rays;
-            report.steps += stats.steps;
-            report.lookups += stats.lookups;
-            report.gathered += stats.gathered;
-            report.nonfinite += stats.nonfinite;
-            report.depth_capped += stats.capped;
-            report.render_s += stats.render_s;
-            report.threads = stats.threads;
-            it.elapsed_s = timer.seconds();
-            // The running error: of the mean so far, known to a lone rank that started at 1.
-            if (reference && progressive && n_ranks == 1 && base == 0)
-                it.rel_mse = image_error(sum.mean(mine).beauty, *reference).rel_mse;
-            report.iterations.push_back(it);
-            if (progressive && !quiet)
-                std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
-                             i, it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
-                             reference && n_ranks == 1 && base == 0
-                                 ? (", relMSE " + std::to_string(it.rel_mse)).c_str()
-                                 : "");
-        }
-        // Every rank stops after the same round: the count is known to all, the time budget is
-        // agreed on (any rank out of time stops them all).
-        if (!progressive) break;
-        const int ran = base + (round + 1) * n_ranks;
-        if (p.iterations > 0 && ran >= p.iterations) break;
-        // Out of time when another round would end further past the budget than this one ends
-        // before it (a round taking the mean time so far): the run ends within half a round of it.
-        const double now_s = timer.seconds(), round_s = (now_s - loop_start_s) / (round + 1);
-        const bool out_of_time = p.time_budget > 0.0f && now_s + 0.5 * round_s >= p.time_budget;
-        if (ranks ? ranks->any(out_of_time) : out_of_time) break;
-        // A checkpoint after a whole round: every iteration up to `ran` is in some rank's sum.
-        if (checkpoints && checkpoints->every_s > 0.0) {
-            const bool due = timer.seconds() - checkpointed_s >= checkpoints->every_s;
-            if (ranks ? ranks->any(due) : due) {
-                gather_to_root();
-                if (root) checkpoints->write(Checkpoint{0, ran, counts(), sum});
-                checkpointed_s = timer.seconds();
-            }
-        }
-    }
-    int iterations = 1;  // all ranks ran
-    if (!progressive && n_ranks > 1) {
-        // Each pixel is one rank's and 0 (bits 0) on the others: summing the values' bits as
-        // integers gives rank 0 the very floats one process renders.
-        std::vector<int64_t> c{int64_t(report.samples),   int64_t(report.rays),
-                               int64_t(report.nonfinite), int64_t(report.depth_capped),
-                               int64_t(report.steps),     int64_t(report.lookups),
-                               int64_t(report.gathered)};
-        std::vector<int64_t> bits = film_bits(out.film);
-        const Timer reduce;
-        ranks->sum_to_root(&c);
-        ranks->sum_to_root(&bits);
-        add_phase(&report, "reduce", reduce.seconds());
-        if (!root) return out;
-        set_film_bits(bits, &out.film);
-        report.samples = uint64_t(c[0]);
-        report.rays = uint64_t(c[1]);
-        report.nonfinite = uint64_t(c[2]);
-        report.depth_capped = uint64_t(c[3]);
-        report.steps = uint64_t(c[4]);
-        report.lookups = uint64_t(c[5]);
-        report.gathered = uint64_t(c[6]);
-    }
-    if (reference && !progressive)
-        report.iterations.back().rel_mse = image_error(out.film.beauty, *reference).rel_mse;
-    if (progressive) {
-        gather_to_root();
-        if (!root) return out;
-        // The last checkpoint holds every iteration: a later --resume with a larger budget
-        // continues from here.
-        if (checkpoints && checkpoints->every_s > 0.0) checkpoints->write({0, mine, counts(), sum});
-        if (sum.clamped > 0)
-            warn(std::to_string(sum.clamped) +
-                 " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
-                 "clamped");
-        out.film = sum.mean(mine);
-        iterations = mine;
-    }
-    if (report.samples > 0 && report.depth_capped > report.samples / 1000) {
-        char text[200];
-        std::snprintf(text, sizeof text,
-                      "render.max_depth = %d cut %.2g%% of the camera samples while they still "
-                      "carried light; raise it (the image misses that light)",
-                      desc.render.max_depth, 100.0 * double(report.depth_capped) / report.samples);
-        warn(text);
-    }
-    if (report.nonfinite > 0)
-        warn(std::to_string(report.nonfinite) + " of " + std::to_string(report.samples) +
-             " camera samples were not finite (NaN or infinite) and were dropped; the pixels "
-             "they fell in are darker");
-    report.scene = desc.path;
-    report.settings = settings_json(desc);
-    report.width = out.film.beauty.width;
-    report.height = out.film.beauty.height;
-    report.spp = desc.render.spp * iterations;
-    report.photons_capped_power /= std::max(own, 1);  // the mean share over rank 0's iterations
-    report.mean = out.film.beauty.mean();
-    return out;
-}
-
-}  // namespace
 
 }  // namespace fogmap

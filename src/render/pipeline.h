@@ -1,15 +1,17 @@
 #pragma once
-// The whole run of one scene description (DESIGN.md, Pipeline): plan and load once (and where
-// auto leaves it to a pilot, pick the integrator: render/pilot.h), then one loop of iterations —
-// photon pass with the iteration's seed, kd-trees, render with the iteration's gather — accumulated
-// into one film; timed by phase, with no files written. A plain render is one iteration;
-// progressive photon mapping (Knaus & Zwicker 2011) runs until its count or time budget. `fogmap
-// render` and `fogmap bench` both call it, so every run is measured the same way.
+// The whole run of one scene description (docs/design.md, Pipeline): resolve it once
+// (render/run_setup.h) and load it (where auto leaves it to a pilot, pick the method:
+// render/pilot.h), then one loop of iterations — photon pass with the iteration's seed, kd-trees,
+// the method's render with the iteration's gather — accumulated into one film, reduced over ranks;
+// timed by phase, with no files written. A plain render is one iteration; progressive photon
+// mapping runs until its count or time budget. `fogmap render` and `fogmap bench` both call it, so
+// every run is measured the same way.
 
 #include "core/image.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/report.h"
+#include "render/run_setup.h"
 #include "render/sun_shadows.h"
 #include "scene/scene_desc.h"
 
@@ -52,8 +54,11 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// With `checkpoints` (progressive runs): starts after the iterations of checkpoints->resume (its
 /// sum and counts), and every checkpoints->every_s seconds, after a whole round, and at the end,
 /// passes rank 0's totals to checkpoints->write.
+/// `decided` (may be null): the run as already resolved and piloted (a sequence's frames take
+/// the first frame's pick); else resolve_run(desc).
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr,
-                            Ranks* ranks = nullptr, const Checkpoints* checkpoints = nullptr);
+                            Ranks* ranks = nullptr, const Checkpoints* checkpoints = nullptr,
+                            const RunSetup* decided = nullptr);
 
 /// Tables that runs on one loaded scene share, each built by the first run that needs it (and
 /// counted in its report's work alone): the suns' shadow grids (their light, media and
@@ -62,10 +67,10 @@ struct SharedTables {
     std::optional<SunShadows> sun;
 };
 
-/// run_pipeline of `desc` (its integrator chosen: not auto) on `scene`, already loaded from it,
-/// on one process, printing nothing (warnings are in the report): auto's pilot runs
-/// (render/pilot.h). The report's load time is 0.
-PipelineResult run_on_scene(const SceneDesc& desc, const Scene& scene,
+/// The run of `setup` (no pilot pending) on `scene`, already loaded from it, on one process,
+/// printing nothing (warnings are in the report): auto's pilot runs (render/pilot.h). The
+/// report's load time is 0.
+PipelineResult run_on_scene(const RunSetup& setup, const Scene& scene,
                             SharedTables* shared = nullptr);
 
 }  // namespace fogmap

@@ -102,16 +102,11 @@ struct MediumDesc {
 /// path: the unbiased path tracer; photon: photon mapping; guided: the path tracer with camera
 /// paths split in media where the volume photon map has light to come (and, by guide_vertices,
 /// directions guided by it; unbiased); auto: the Plan picks one of them for the scene
-/// (scene/plan.h, choose_integrator).
+/// (render/run_setup.h, choose_integrator).
 enum class Integrator { Path, Photon, Guided, Auto };
 
 struct RenderSettings {
     Integrator integrator = Integrator::Auto;
-    /// Not a scene key: why the integrator was chosen when the scene asked for auto.
-    std::string auto_reason;
-    /// Not a scene key: auto chose photon for media under sun, sky or area lights; once the media
-    /// are loaded, a pilot of the candidates decides (render/pilot.h).
-    bool auto_media = false;
     int spp = 16;  ///< samples per pixel, >= 1
     /// Photon integrator: about how many of a pixel's spp samples look up the photon maps (0 =
     /// all). A lookup costs many times the rest of a sample, so the others only trace the camera
@@ -120,8 +115,7 @@ struct RenderSettings {
     int map_spp = 4;
     /// Guided integrator: medium vertices along a path (the first ones) whose scattering
     /// direction is sampled from the volume photons' incident directions mixed with the phase
-    /// function (render/volume_guide.h); 0 = none, the map then drives splitting alone (measured:
-    /// README, "Guided path tracing").
+    /// function (render/volume_guide.h); 0 = none, the map then drives splitting alone.
     int guide_vertices = 0;
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
@@ -129,37 +123,25 @@ struct RenderSettings {
     int max_depth = 1000000;
     uint64_t seed = 1;  ///< results are a function of the seed alone
     int threads = 0;    ///< 0 = all cores
-    /// Not scene keys: this process renders the image's 16x16 tiles t ≡ tile_index (mod
-    /// tile_count) alone, the others left 0 (the MPI ranks of a plain render share its tiles).
-    int tile_index = 0, tile_count = 1;
 };
 
-/// Photon budgets (DESIGN.md, Photons): photons *stored* per map; shooting goes on until every
-/// map with a budget is full or max_emitted photons have left the lights. 0 = map not built.
-struct PhotonSettings {
+/// The volume map's budget when the scene gives none and no rule sets it.
+inline constexpr uint64_t kDefaultVolumePhotons = 100000;
+
+/// Photon budgets (docs/design.md, Pipeline): photons *stored* per map; shooting goes on until
+/// every map with a budget is full or max_emitted photons have left the lights. 0 = map not built.
+struct PhotonDesc {
     uint64_t global = 100000;  ///< diffuse hits after at least one bounce
     uint64_t caustic = 50000;  ///< L S+ D paths
-    uint64_t volume = 100000;  ///< scattering events in media after at least one interaction
+    /// Scattering events in media after at least one interaction; absent = by rule
+    /// (render/run_setup.h, volume_budget), kDefaultVolumePhotons where no rule applies.
+    std::optional<uint64_t> volume;
     uint64_t max_emitted = 0;  ///< cap on emitted photons; 0 = 100 x the largest budget
     /// Interactions per photon path, >= 1. Photons end by Russian roulette on the albedo; this is
     /// a safety limit, and the power it cuts is reported (a warning above 0.1%).
     int max_bounces = 1000000;
-    /// Not a scene key: the volume map keeps its paths' beams too (set from volume.estimator
-    /// photon_beams).
-    bool volume_beams = false;
-    /// Not a scene key: with the volume map the only map, it closes after this many attempts
-    /// (0 = no such rule; the pipeline sets it by scene/plan.h, volume_attempts, unless auto's
-    /// pilot has).
-    uint64_t volume_attempts = 0;
-    /// Not a scene key: the scene (or --set) gave photons.volume. Without it, camera paths ending
-    /// in the volume map let the attempts rule alone close that map (scene/plan.h,
-    /// volume_budget).
-    bool volume_given = false;
+    uint64_t volume_or_default() const { return volume.value_or(kDefaultVolumePhotons); }
 };
-
-/// Paths ending in the volume map: photon attempts per camera sample at which the volume map
-/// closes (photon/photon_pass.h).
-inline constexpr double kVolumeAttemptsPerSample = 0.25;
 
 /// Surface global map: disc estimate, shown directly or through final gathering.
 struct GlobalGatherSettings {
@@ -176,6 +158,8 @@ struct CausticGatherSettings {
     float cone_filter = 0.0f;  ///< Jensen's k_f; 0 = box filter
 };
 
+inline constexpr int kDefaultVolumeK = 50;
+
 /// sphere: point queries along the camera march; beam: one query per ray segment over photon
 /// spheres (Jarosz, Zwicker, Jensen 2008); photon_beams: one query per ray segment over the photon
 /// paths' segments blurred into cylinders (photon/photon_beams.h; Jarosz, Nowrouzezahrai, Sadeghi,
@@ -187,7 +171,9 @@ enum class VolumeEstimator { Sphere, Beam, PhotonBeams };
 /// beam is the default: the sphere blurs photons from inside a dense medium onto the camera's side
 /// of its edge, where the transmittance is higher (the bundled cloud: +15% in the medium).
 struct VolumeGatherSettings {
-    int k = 50;
+    /// Photons per estimate; absent = by rule (render/run_setup.h, volume_k), kDefaultVolumeK
+    /// where no rule applies.
+    std::optional<int> k;
     float radius = 0.0f;  ///< max radius, world units; 0 = 5% of the media diagonal
     VolumeEstimator estimator = VolumeEstimator::Beam;
     /// Volume-map lookups per camera ray: at steps drawn by stratified importance sampling of
@@ -212,8 +198,7 @@ struct VolumeGatherSettings {
     /// optical depth along it from a grid with nodes this many voxels apart (render/sun_shadows.h;
     /// built once per render when every medium is a grid); 0 = ratio-tracked shadow rays.
     float sun_grid = 1.0f;
-    /// Not a scene key: the scene (or --set) gave volume.k (scene/plan.h, volume_k).
-    bool k_given = false;
+    int k_or_default() const { return k.value_or(kDefaultVolumeK); }
 };
 
 /// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
@@ -233,7 +218,8 @@ struct ProgressiveDesc {
     int iterations = 0;         ///< stop after this many iterations (0 = no limit)
     float time_budget = 0.0f;   ///< stop once this many seconds have passed (0 = no limit)
     float alpha = 2.0f / 3.0f;  ///< radius reduction, in (0, 1)
-    /// Camera samples per pixel in each iteration; 0 = by rule (scene/plan.h, iteration_size).
+    /// Camera samples per pixel in each iteration; 0 = by rule (render/run_setup.h,
+    /// iteration_size).
     int spp = 0;
     bool enabled() const { return iterations > 0 || time_budget > 0.0f; }
 };
@@ -247,7 +233,7 @@ struct SceneDesc {
     std::vector<ShapeDesc> shapes;
     std::vector<MediumDesc> media;
     RenderSettings render;
-    PhotonSettings photons;
+    PhotonDesc photons;
     GlobalGatherSettings global;
     CausticGatherSettings caustic;
     VolumeGatherSettings volume;

@@ -4,7 +4,6 @@
 #include "core/hash.h"
 #include "core/input_file.h"
 #include "scene/json_reader.h"
-#include "scene/plan.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -267,6 +266,14 @@ struct FieldReader {
     void value(const char* key, T& x) {
         r.read(key, &x);
     }
+    /// A key set by rule when absent: stays empty unless the scene gives it.
+    template <class T>
+    void value(const char* key, std::optional<T>& x) {
+        if (!r.find(key)) return;
+        T v{};
+        r.read(key, &v);
+        x = v;
+    }
     template <class E, size_t N>
     void choice(const char* key, E& x, const std::array<E, N>& values, const char* what) {
         r.read_enum(key, values, what, &x);
@@ -354,6 +361,10 @@ struct FieldWriter {
     template <class T>
     void value(const char* key, const T& x) {
         j[key] = x;
+    }
+    template <class T>
+    void value(const char* key, const std::optional<T>& x) {
+        if (x) j[key] = *x;
     }
     template <class E, size_t N>
     void choice(const char* key, E x, const std::array<E, N>&, const char*) {
@@ -523,11 +534,9 @@ SceneDesc scene_desc_from_json(const json& doc, const std::string& file) {
     });
     read_object(top, "render", desc.render, [](auto& x, auto& f) { render_fields(x, f); });
     read_object(top, "photons", desc.photons, [](auto& x, auto& f) { photon_fields(x, f); });
-    if (const json* p = top.find("photons")) desc.photons.volume_given = p->contains("volume");
     read_object(top, "global", desc.global, [](auto& x, auto& f) { global_fields(x, f); });
     read_object(top, "caustic", desc.caustic, [](auto& x, auto& f) { caustic_fields(x, f); });
     read_object(top, "volume", desc.volume, [](auto& x, auto& f) { volume_fields(x, f); });
-    if (const json* v = top.find("volume")) desc.volume.k_given = v->contains("k");
     read_object(top, "march", desc.march, [](auto& x, auto& f) { march_fields(x, f); });
     read_object(top, "progressive", desc.progressive,
                 [](auto& x, auto& f) { progressive_fields(x, f); });
@@ -585,17 +594,6 @@ json to_json(const SceneDesc& desc) {
     return j;
 }
 
-uint64_t resumable_fingerprint(const SceneDesc& desc) {
-    json j = to_json(desc);
-    j["progressive"].erase("iterations");
-    j["progressive"].erase("time_budget");
-    j["render"].erase("threads");
-    // Defaults the scene did not give follow rules (scene/plan.h, volume_budget and volume_k).
-    j["photons"]["volume_given"] = desc.photons.volume_given;
-    j["volume"]["k_given"] = desc.volume.k_given;
-    return fnv1a(j.dump());
-}
-
 SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides) {
     json doc =
         parse_json_document(read_input_file(path, "", "scene file", kMaxSceneFileBytes), path);
@@ -603,7 +601,7 @@ SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string
     try {
         SceneDesc desc = scene_desc_from_json(doc, path);
         validate(desc);
-        return choose_integrator(std::move(desc));  // auto resolved once, for every stage
+        return desc;
     } catch (const InputError& e) {
         // A bad value that came from the command line says so, with the assignment.
         for (auto it = overrides.rbegin(); it != overrides.rend(); ++it) {

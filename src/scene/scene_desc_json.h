@@ -13,8 +13,8 @@
 namespace fogmap {
 
 /// Reads `path`, applies overrides ("render.spp=64", "lights.0.intensity=[1,2,3]": the value is
-/// JSON if it parses as JSON, else a string), converts, validates and resolves render.integrator
-/// "auto" (scene/plan.h, choose_integrator).
+/// JSON if it parses as JSON, else a string), converts and validates. The file's keys alone:
+/// render/run_setup.h resolves what runs.
 /// Throws InputError{path, field, reason}; JSON syntax errors give line and column.
 SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides = {});
 
@@ -27,18 +27,14 @@ void apply_override(nlohmann::json& doc, const std::string& assignment, const st
 /// becomes base_dir.
 SceneDesc scene_desc_from_json(const nlohmann::json& doc, const std::string& file);
 
-/// SceneDesc → JSON with every field; scene_desc_from_json(to_json(d)) reads back d exactly,
-/// but for the fields that are not scene keys (every key is then given: photons.volume_given and
-/// volume.k_given are true).
+/// SceneDesc → JSON with every field (keys set by rule only where given);
+/// scene_desc_from_json(to_json(d)) reads back d exactly.
 nlohmann::json to_json(const SceneDesc& desc);
 
-/// FNV-1a of to_json(desc) without progressive.iterations, progressive.time_budget and
-/// render.threads: what a resumed progressive run must share with its checkpoint.
-uint64_t resumable_fingerprint(const SceneDesc& desc);
 /// The render settings alone: {integrator, spp, max_depth, seed, threads}.
 nlohmann::json to_json(const RenderSettings& render);
-/// The effective non-scene settings printed by the report, every field written:
-/// {render, photons, global, caustic, volume, march}.
+/// The settings (every key but the camera, lights, materials, shapes and media), every field
+/// written: {render, photons, global, caustic, volume, march, progressive}.
 nlohmann::json settings_json(const SceneDesc& desc);
 
 }  // namespace fogmap

@@ -479,13 +479,13 @@ void check_render(const SceneDesc& desc) {
 }
 
 void check_photons(const SceneDesc& desc) {
-    const PhotonSettings& p = desc.photons;
+    const PhotonDesc& p = desc.photons;
     const Checker k(desc, "/photons");
     // Negative budgets never get here: the reader rejects them as "expected a non-negative
     // integer". max_emitted has no upper bound: it is a cap, and 0 means automatic.
     k.uint_range("global", p.global, 0, kMaxPhotonBudget);
     k.uint_range("caustic", p.caustic, 0, kMaxPhotonBudget);
-    k.uint_range("volume", p.volume, 0, kMaxPhotonBudget);
+    k.uint_range("volume", p.volume_or_default(), 0, kMaxPhotonBudget);
     k.int_range("max_bounces", p.max_bounces, 1, kMaxDepthLimit);
 }
 
@@ -513,7 +513,7 @@ void check_gather(const SceneDesc& desc) {
     {
         const VolumeGatherSettings& v = desc.volume;
         const Checker k(desc, "/volume");
-        k.int_range("k", v.k, 1, kMaxGatherK);
+        k.int_range("k", v.k_or_default(), 1, kMaxGatherK);
         k.non_negative("radius", v.radius);
         k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
         k.int_range("light_samples", v.light_samples, 0, 4096);

@@ -1,8 +1,8 @@
-// The extreme-case matrix of DESIGN.md ("Numerical stability: cases that must hold"): every case
-// goes through validate() and run_pipeline() with both integrators (the reference path tracer and
-// the photon-map pipeline) on a tiny image, and must end with finite pixels in every AOV, no
-// dropped (NaN/Inf) samples and photon maps within their budgets — in bounded time (a watchdog
-// ends the process with the case's name) — or with a clear InputError naming the field.
+// The extreme-case matrix, cases that must hold: every case goes through validate() and
+// run_pipeline() with both integrators (the reference path tracer and the photon-map pipeline) on a
+// tiny image, and must end with finite pixels in every AOV, no dropped (NaN/Inf) samples and photon
+// maps within their budgets — in bounded time (a watchdog ends the process with the case's name) —
+// or with a clear InputError naming the field.
 // Where a closed form exists the value is checked too: an absorbing medium shows the sky times
 // exp(-tau) and nothing scattered; a near-vacuum shows the sky; a camera inside an albedo-1
 // medium under a uniform sky sees the sky radiance (white furnace).
@@ -15,6 +15,7 @@
 #include "media/volume_gen.h"
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
+#include "render/run_setup.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
 
@@ -277,7 +278,7 @@ std::vector<Case> density_scale_cases() {
                          {},
                          "/media/0/density_scale"});
     // Finite but absurd coefficients (1e20 per unit): free paths below float resolution, an
-    // InputError (a bounded render used to show a surface-like random walk, far too bright).
+    // InputError (rendered, it would show a surface-like random walk, far too bright).
     cases.push_back(Case{"SigmaHugeGrid",
                          [](const fs::path& dir) {
                              SceneDesc d = base_scene();
@@ -695,7 +696,7 @@ TEST_P(ExtremeCase, FinitePixelsInBoundedTimeOrInputError) {
     for (const auto& map : result.report.maps) {
         const uint64_t budget = map.name == "global"    ? desc.photons.global
                                 : map.name == "caustic" ? desc.photons.caustic
-                                                        : desc.photons.volume;
+                                                        : resolve_run(desc).photons.volume;
         EXPECT_LE(map.stored, std::max(budget + longest, 256 * streams * longest))
             << name << ": " << map.name << " map";
     }
@@ -713,7 +714,7 @@ INSTANTIATE_TEST_SUITE_P(Matrix, ExtremeCase,
                                     to_string(std::get<1>(info.param));
                          });
 
-// The load-time rule for bad voxel values (DESIGN.md, Media; STYLE.md, Errors): NaN, ±Inf,
+// The load-time rule for bad voxel values (docs/design.md, Density between voxels): NaN, ±Inf,
 // negative and denormal values are set to 0 with a warning and counted per kind, in leaf voxels
 // and in active tiles (a tile counts the voxels it covers).
 TEST(ExtremeGrid, BadVoxelsAreSanitisedAndCounted) {

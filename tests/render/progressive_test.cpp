@@ -7,7 +7,7 @@
 #include "render/gather_params.h"
 #include "render/metrics.h"
 #include "render/pipeline.h"
-#include "scene/plan.h"
+#include "render/run_setup.h"
 #include "scene/scene_desc_json.h"
 
 #include <gtest/gtest.h>

@@ -26,7 +26,8 @@ SceneDesc cube(const LightDesc& light, int light_samples) {
     d.lights.push_back(light);
     // Isotropic (g = 0): p = 1/(4π).
     d.media.push_back(homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(kSigmaS), Color(kSigmaA)));
-    d.photons.global = d.photons.caustic = d.photons.volume = 0;
+    d.photons.global = d.photons.caustic = 0;
+    d.photons.volume = 0;
     d.volume.light_samples = light_samples;
     return d;
 }
@@ -101,9 +102,9 @@ TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
     light.intensity = Color(3.0f);
     light.cone_angle_deg = 30.0f;
     light.cone_delta_deg = 10.0f;
-    // The spot's emission written out here (README, light `spot`): intensity I within 20° of the
-    // axis, falling as the cubic smoothstep t²(3 − 2t) of the cosine to 0 at 30°, over r², times
-    // the medium's transmittance.
+    // The spot's emission written out here: intensity I within 20° of the axis, falling as the
+    // cubic smoothstep t²(3 − 2t) of the cosine to 0 at 30°, over r², times the medium's
+    // transmittance.
     const double cos_outer = std::cos(30.0 * kPi / 180.0), cos_inner = std::cos(20.0 * kPi / 180.0);
     const double expected = quadrature(200000, [&](const Vec3& x) {
         const Vec3 to = x - light.position;

@@ -1,6 +1,6 @@
-// Transmittance is not a coin toss (issue 15): shadow rays through a homogeneous slab carry the
-// exact exp(−σ_t d), so a plane lit by a sun through fog has a `direct` layer without variance, in
-// the photon integrator and in the path tracer; and residual ratio tracking stays unbiased in a
+// Transmittance is not a coin toss: shadow rays through a homogeneous slab carry the exact
+// exp(−σ_t d), so a plane lit by a sun through fog has a `direct` layer without variance, in the
+// photon integrator and in the path tracer; and residual ratio tracking stays unbiased in a
 // heterogeneous grid (against the optical depth integrated by quadrature here).
 
 #include "media/volume_gen.h"
@@ -35,7 +35,8 @@ SceneDesc plane_under_fog() {
     d.camera.height = 12;
     d.render.spp = 2;
     d.render.integrator = Integrator::Photon;  // its direct layer is under test
-    d.photons.global = d.photons.caustic = d.photons.volume = 0;
+    d.photons.global = d.photons.caustic = 0;
+    d.photons.volume = 0;
     return d;
 }
 

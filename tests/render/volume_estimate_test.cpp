@@ -6,6 +6,7 @@
 #include "media/henyey_greenstein.h"
 #include "photon/estimators.h"
 #include "render/path_tracer.h"
+#include "render/run_setup.h"
 #include "scene_builders.h"
 
 #include <gtest/gtest.h>

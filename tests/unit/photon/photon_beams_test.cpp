@@ -5,6 +5,7 @@
 // same light.
 
 #include "photon/photon_beams.h"
+#include "render/run_setup.h"
 
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -117,10 +118,11 @@ TEST(PhotonBeams, BeamLengthsCarryTheFluenceThePhotonsCollideIn) {
     d.photons.caustic = 0;
     d.photons.global = 20000;
     d.photons.volume = 100000;
-    d.photons.volume_beams = true;
+    PhotonSettings photons = d.photons;
+    photons.volume_beams = true;
     const auto scene = load_scene(d);
     const PhotonPassResult r =
-        trace_photons(*scene, make_plan(d), d.photons, d.march, d.render.seed, true);
+        trace_photons(*scene, make_plan(d), photons, d.march, d.render.seed, true);
     ASSERT_TRUE(r.volume);
     ASSERT_GT(r.volume->beams.size(), r.volume->photons.size());
     double collided = 0.0, tracked = 0.0;

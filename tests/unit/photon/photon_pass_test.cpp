@@ -9,6 +9,7 @@
 #include "core/sampling.h"
 #include "photon/estimators.h"
 #include "photon/streams.h"
+#include "render/run_setup.h"
 #include "scene_builders.h"
 
 #include <gtest/gtest.h>
@@ -203,10 +204,11 @@ TEST(PhotonPass, VolumeMapAloneClosesAtItsAttempts) {
     SceneDesc d = box_over_a_wide_ground(Color(1.0f), Color(0.1f));
     d.volume.gather_depth = 3;
     d.photons.volume = 1000000;
-    d.photons.volume_attempts = 40000;
+    PhotonSettings settings = d.photons;
+    settings.volume_attempts = 40000;
     const auto scene = load_scene(d);
     const PhotonPassResult r =
-        trace_photons(*scene, make_plan(photon(d)), d.photons, d.march, d.render.seed, true);
+        trace_photons(*scene, make_plan(photon(d)), settings, d.march, d.render.seed, true);
     ASSERT_TRUE(r.volume);
     EXPECT_FALSE(r.global || r.caustic);
     EXPECT_EQ(r.emitted, 40000u);
@@ -215,9 +217,9 @@ TEST(PhotonPass, VolumeMapAloneClosesAtItsAttempts) {
               "closed after 40000 attempts (0.25 per camera sample, at least its budget)");
     EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
 
-    d.photons.volume = 5000;  // fills first
+    settings.volume = 5000;  // fills first
     const PhotonPassResult full =
-        trace_photons(*scene, make_plan(photon(d)), d.photons, d.march, d.render.seed + 1, true);
+        trace_photons(*scene, make_plan(photon(d)), settings, d.march, d.render.seed + 1, true);
     ASSERT_TRUE(full.volume);
     EXPECT_LT(full.emitted, 40000u);
     EXPECT_TRUE(full.volume->stopped.empty());

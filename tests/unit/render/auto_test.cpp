@@ -26,6 +26,19 @@ SceneDesc small_smoke(int spp, float scale = 1.0f, int width = 64, int height = 
          "media.0.sigma_a=[" + a + "," + a + "," + a + "]"});
 }
 
+// `desc` as auto's pilot sees it: the photon integrator at auto's volume gather depth.
+SceneDesc as_piloted(const SceneDesc& desc) {
+    SceneDesc d = desc;
+    d.render.integrator = Integrator::Photon;
+    d.volume.gather_depth = resolve_run(desc).run.volume.gather_depth;
+    return d;
+}
+
+// auto's pick for `desc` once its media are loaded.
+RunSetup pick(const SceneDesc& desc, bool* piloted = nullptr) {
+    return settle_pilot(desc, resolve_run(desc), *load_scene(desc), nullptr, piloted);
+}
+
 // relMSE as bench measures it, with d² from pairs of independent renders, (a − b)² / 2, and y
 // the mean of every render: the error one render of the pair has.
 double pair_rel_mse(const std::vector<std::vector<Image>>& pairs, size_t which) {
@@ -45,8 +58,8 @@ double pair_rel_mse(const std::vector<std::vector<Image>>& pairs, size_t which) 
 }
 
 TEST(Pilot, PredictsTheFullRendersErrorAndWork) {
-    const SceneDesc desc = small_smoke(64);
-    ASSERT_TRUE(desc.render.auto_media);
+    ASSERT_TRUE(resolve_run(small_smoke(64)).pilot);
+    const SceneDesc desc = as_piloted(small_smoke(64));
     const auto scene = load_scene(desc);
     const Pilot pilot = run_pilot(desc, *scene);
     ASSERT_EQ(pilot.candidates.size(), 3u);
@@ -61,9 +74,8 @@ TEST(Pilot, PredictsTheFullRendersErrorAndWork) {
         for (uint64_t seed = 11; seed <= 12; ++seed) {
             SceneDesc d = desc;
             d.render.integrator = cand.integrator;
-            d.render.auto_media = false;
             d.render.seed = seed;
-            PipelineResult run = run_on_scene(d, *scene);
+            PipelineResult run = run_on_scene(resolve_run(d), *scene);
             const Work w = work_units(run.report);
             work[c] += 0.5 * (w.render + w.photons + w.fixed);
             pairs[c].push_back(std::move(run.film.beauty));
@@ -89,22 +101,22 @@ TEST(Pilot, PredictsTheFullRendersErrorAndWork) {
 // samples are stratified: relMSE x work measured 0.98 of the path tracer's).
 TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
     for (const float scale : {1.0f, 0.03f}) {
-        SceneDesc desc = small_smoke(64, scale, 240, 135);
-        const SceneDesc picked = pilot_auto(desc, *load_scene(desc));
-        EXPECT_EQ(picked.render.integrator, scale == 1.0f ? Integrator::Photon : Integrator::Path)
-            << picked.render.auto_reason;
-        EXPECT_NE(picked.render.auto_reason.find("a pilot (1 in 16 tiles, 4 spp, two seeds)"),
+        const RunSetup picked = pick(small_smoke(64, scale, 240, 135));
+        EXPECT_EQ(picked.run.render.integrator,
+                  scale == 1.0f ? Integrator::Photon : Integrator::Path)
+            << picked.reason;
+        EXPECT_NE(picked.reason.find("a pilot (1 in 16 tiles, 4 spp, two seeds)"),
                   std::string::npos)
-            << picked.render.auto_reason;
+            << picked.reason;
     }
     SceneDesc progressive = small_smoke(64, 0.03f);  // the others have no iterations
     progressive.progressive.iterations = 4;
-    const SceneDesc kept = pilot_auto(progressive, *load_scene(progressive));
-    EXPECT_EQ(kept.render.integrator, Integrator::Photon);
-    EXPECT_NE(kept.render.auto_reason.find("progressive iterations"), std::string::npos);
+    const RunSetup kept = pick(progressive);
+    EXPECT_EQ(kept.run.render.integrator, Integrator::Photon);
+    EXPECT_NE(kept.reason.find("progressive iterations"), std::string::npos);
     SceneDesc named = small_smoke(64, 0.03f);  // a scene that names its integrator keeps it
-    named.render.auto_media = false;
-    EXPECT_EQ(pilot_auto(named, *load_scene(named)).render.integrator, Integrator::Photon);
+    named.render.integrator = Integrator::Photon;
+    EXPECT_EQ(pick(named).run.render.integrator, Integrator::Photon);
 }
 
 // kPilotMaxShare: at 8 spp the pilot's 4 would be half the render's samples per pixel (its
@@ -114,18 +126,16 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     const SceneDesc few = small_smoke(8, 0.03f);  // thin: the pilot would pick path at 64 spp
     EXPECT_GT(pilot_share(few).spp, kPilotMaxShare * few.render.spp);
     bool piloted = true;
-    const SceneDesc picked = pilot_auto(few, *load_scene(few), nullptr, &piloted);
+    const RunSetup picked = pick(few, &piloted);
     EXPECT_FALSE(piloted);
-    EXPECT_EQ(picked.render.integrator, Integrator::Photon);
-    EXPECT_NE(picked.render.auto_reason.find("8 spp, where a pilot (4 spp) would cost more than "
-                                             "the render: photon without one"),
+    EXPECT_EQ(picked.run.render.integrator, Integrator::Photon);
+    EXPECT_NE(picked.reason.find("8 spp, where a pilot (4 spp) would cost more than "
+                                 "the render: photon without one"),
               std::string::npos)
-        << picked.render.auto_reason;
+        << picked.reason;
     const SceneDesc more = small_smoke(16, 0.03f);
     EXPECT_EQ(pilot_share(more).spp, 4);
-    EXPECT_NE(pilot_auto(more, *load_scene(more), nullptr, &piloted)
-                  .render.auto_reason.find("a pilot (1 in"),
-              std::string::npos);
+    EXPECT_NE(pick(more, &piloted).reason.find("a pilot (1 in"), std::string::npos);
     EXPECT_TRUE(piloted);
     // The report times a pilot only where one ran.
     const auto has_pilot_phase = [](const SceneDesc& desc) {
@@ -140,7 +150,7 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
 TEST(Pilot, TheSameNumbersForAnyThreadCount) {
     std::vector<Pilot> pilots;
     for (const int threads : {1, 2}) {
-        SceneDesc desc = small_smoke(16, 1.0f, 160, 90);
+        SceneDesc desc = as_piloted(small_smoke(16, 1.0f, 160, 90));
         desc.render.threads = threads;
         pilots.push_back(run_pilot(desc, *load_scene(desc)));
     }

@@ -1,4 +1,4 @@
-#include "scene/plan.h"
+#include "render/run_setup.h"
 
 #include "scene/scene_desc_json.h"
 
@@ -275,18 +275,20 @@ TEST(Plan, MarchingReasonNamesTheFreePathMethod) {
 TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     json doc = glass_floor_fog();
     doc["volume"] = json{{"gather_depth", 2}};
+    // The plan of the run as it runs: 640 x 360 x 16 spp = 3.7 M camera samples run as 3
+    // iterations of 6 spp (iteration_size), each closing its map after a quarter of its 1.38 M.
     const Plan p = make_plan(scene(doc));
     EXPECT_EQ(line(p, kMarching),
               "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
               "tracking (first segment) and delta tracking and end in the volume map)");
     EXPECT_EQ(line(p, kVolume),
-              "volume map: built (1 scattering medium, budget 921600 photons (a photon per "
+              "volume map: built (1 scattering medium, budget 345600 photons (a photon per "
               "attempt: photons.volume not set); camera paths end "
               "in it at the medium vertex that is their vertex 2 (diffuse bounces count) or the "
               "first after it where its ball spans at most volume.gather_tau = 1.5 scattering mean "
               "free paths (by vertex 8), looked up from "
               "a grid of its photons' moments (where more than 100 fall within its radius, within "
-              "a smaller one holding about volume.k = 50); it closes after 921600 photon attempts "
+              "a smaller one holding about volume.k = 50); it closes after 345600 photon attempts "
               "(0.25 per camera sample, at least its budget) if not full before)");
     // A sun over VDB media: its shadow rays read the optical depth along it from a grid
     // (render/sun_shadows.h); volume.sun_grid 0, or a homogeneous medium, keeps ratio tracking.

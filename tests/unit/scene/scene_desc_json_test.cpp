@@ -222,20 +222,21 @@ TEST(SceneDescJson, EmptyDocumentGivesDefaults) {
 }
 
 // photons.volume and volume.k given at their default values are not the defaults left to a rule
-// (scene/plan.h, volume_budget and volume_k): the scene reads which, and a checkpoint of one does
-// not resume the other; the iteration count still does not matter.
+// (render/run_setup.h, volume_budget and volume_k): the scene reads which.
 TEST(SceneDescJson, GivenDefaultsAreToldFromDefaultsLeftToARule) {
     const SceneDesc left = scene_desc_from_json(json::object(), "scene.json");
-    const SceneDesc given = scene_desc_from_json(
-        json{{"photons", {{"volume", left.photons.volume}}}, {"volume", {{"k", left.volume.k}}}},
-        "scene.json");
-    EXPECT_FALSE(left.photons.volume_given || left.volume.k_given);
-    EXPECT_TRUE(given.photons.volume_given && given.volume.k_given);
-    EXPECT_EQ(given.photons.volume, left.photons.volume);
-    EXPECT_NE(resumable_fingerprint(given), resumable_fingerprint(left));
-    SceneDesc more = left;
-    more.progressive.iterations = 7;
-    EXPECT_EQ(resumable_fingerprint(more), resumable_fingerprint(left));
+    const SceneDesc given =
+        scene_desc_from_json(json{{"photons", {{"volume", kDefaultVolumePhotons}}},
+                                  {"volume", {{"k", kDefaultVolumeK}}}},
+                             "scene.json");
+    EXPECT_FALSE(left.photons.volume || left.volume.k);
+    EXPECT_TRUE(given.photons.volume && given.volume.k);
+    EXPECT_EQ(given.photons.volume_or_default(), left.photons.volume_or_default());
+    EXPECT_EQ(given.volume.k_or_default(), left.volume.k_or_default());
+    // Written back only where given, so a file read and written keeps its rules.
+    EXPECT_FALSE(to_json(left)["photons"].contains("volume"));
+    EXPECT_EQ(scene_desc_from_json(to_json(given), "scene.json").photons.volume,
+              given.photons.volume);
 }
 
 TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
@@ -377,10 +378,10 @@ TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
                        {"march", full["march"]},
                        {"progressive", full["progressive"]}}));
 
-    // Defaults are written too (the report shows what ran, not what the file said).
+    // Defaults are written too, but for the keys a rule sets when absent.
     const json defaults = settings_json(SceneDesc{});
     EXPECT_EQ(defaults["render"]["integrator"], "auto");
-    EXPECT_EQ(defaults["photons"]["volume"], 100000);
+    EXPECT_FALSE(defaults["photons"].contains("volume"));
     EXPECT_EQ(defaults["global"]["final_gather"], false);
     EXPECT_EQ(defaults["caustic"]["cone_filter"], 0.0);
     EXPECT_EQ(defaults["volume"]["estimator"], "beam");

@@ -1,0 +1,141 @@
+#pragma once
+// One run, resolved once (docs/design.md, Pipeline): the scene file (SceneDesc, its keys and
+// nothing else) becomes the method that runs and why, its iteration schedule, the photon budgets,
+// the keys set by rule, and the share of tiles this process renders. Every stage takes its slice;
+// the Plan, the report's `settings` (what ran) and the checkpoint fingerprint print from it.
+// Pure functions of the description (and, for auto's pilot, of the loaded scene): deterministic.
+
+#include "photon/photon_settings.h"
+#include "render/tiles.h"
+#include "scene/plan.h"
+#include "scene/scene_desc.h"
+
+#include <nlohmann/json_fwd.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+
+/// How camera samples are estimated (docs/design.md, Choosing an integrator).
+enum class Method {
+    Path,    ///< the unbiased volumetric path tracer
+    Guided,  ///< the path tracer, split and guided in media by the volume map (unbiased)
+    MapEnd,  ///< photon: camera paths traced as the path tracer does, ended in the volume map
+    Gather,  ///< photon: camera rays march and gather every map (layered film)
+};
+
+/// "path", "guided", "photon" (both photon methods: the scene key's name).
+const char* integrator_name(Method m);
+/// What the method does, for messages: "the path tracer", "photon mapping with camera paths
+/// ending in the volume map", ...
+const char* describe(Method m);
+
+struct RunSetup {
+    /// The scene's keys as they run: render.integrator named (never auto), and the keys set by
+    /// rule filled in — volume.gather_depth (auto's), volume.k, photons.volume, render.spp and
+    /// progressive.spp (an iteration's), progressive.iterations (the schedule's).
+    SceneDesc run;
+    Method method = Method::Path;
+    std::string reason = "scene";  ///< why this method: "scene", or auto's rule and pilot
+    /// auto left the pick between the photon methods, path and guided to a pilot once the media
+    /// are loaded (render/pilot.h, settle_pilot).
+    bool pilot = false;
+    /// Iterations of shrinking radii summed into one film (photon methods only).
+    bool progressive = false;
+    std::string schedule;  ///< why the iterations are as they are; "" for one plain iteration
+    /// Settings keys the scene sets (away from their defaults) that this method does not read.
+    std::vector<std::string> ignored;
+    PhotonSettings photons;  ///< the photon pass's budgets and closing rules
+    TileShare tiles;         ///< the tiles this process renders (MPI ranks, auto's pilot)
+    Plan plan;               ///< the maps and passes this run needs, and why
+
+    /// The photon integrator's methods (the others have no iterations and no layers).
+    bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
+    bool layered() const { return method == Method::Gather; }  ///< a film with layers
+    /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
+    void set_reason(std::string why);
+};
+
+/// Resolves `desc` (validated): auto's rules, then the schedule, the budgets and the keys set by
+/// rule, in that order (the budgets follow an iteration's samples). Never throws.
+RunSetup resolve_run(const SceneDesc& desc);
+
+/// `file` resolved with `integrator` named (what auto's pilot picked) at the volume gather depth
+/// `chosen` (auto's resolution of it) took, with `reason`.
+RunSetup resolve_picked(const SceneDesc& file, const RunSetup& chosen, Integrator integrator,
+                        std::string reason);
+
+/// What render.integrator = "auto" picks, with the measured reason, in this order:
+/// - photon when a glass or mirror surface and a diffuse one meet a point, spot or small sun
+///   (angular radius below 1°): the caustics these cast are paths the path tracers cannot sample;
+/// - photon when a point or spot light shines in a medium;
+/// - photon when a medium emits;
+/// - for any other scene with media (smoke and clouds under sun, sky or area lights), photon with
+///   camera paths ending in the volume map (volume.gather_depth kAutoGatherDepth, unless the
+///   scene sets a depth or asks for photon beams), and a pilot once the media are loaded;
+/// - path when there is no medium.
+/// Sets setup->run.render.integrator (and gather_depth), reason and pilot. A named integrator is
+/// kept with the reason "scene".
+void choose_integrator(RunSetup* setup);
+
+/// The vertex at which auto's camera paths end in the volume map (docs/measurements.md).
+inline constexpr int kAutoGatherDepth = 3;
+
+/// The method that runs `desc`, whose integrator is named: photon with volume.gather_depth >= 1
+/// is MapEnd, photon otherwise Gather.
+Method method_of(const SceneDesc& desc);
+
+/// The rules below take a description whose integrator is named (not auto).
+
+/// Camera paths ending in the volume map with photons.max_emitted 0: the attempts at which the
+/// volume map closes, kVolumeAttemptsPerSample per camera sample and at least its budget
+/// (photon/photon_pass.h); otherwise 0 (no such rule).
+uint64_t volume_attempts(const SceneDesc& desc);
+
+/// The most photons volume_budget asks for (168 MB of photons).
+inline constexpr uint64_t kVolumeRuleMaxPhotons = uint64_t(1) << 23;
+
+/// The volume map's budget: with the attempts rule on and photons.volume not given, as many
+/// photons as attempts, at most kVolumeRuleMaxPhotons (the rule alone then closes the map);
+/// otherwise photons.volume (kDefaultVolumePhotons when not given).
+uint64_t volume_budget(const SceneDesc& desc);
+
+/// How a photon render takes its camera samples: iterations of `spp` samples per pixel.
+struct IterationSize {
+    int spp = 1;
+    int iterations = 1;  ///< a progressive run's: progressive.iterations (0: by time budget)
+    std::string reason;  ///< for the Plan; "" for a plain render of one iteration
+};
+
+/// Camera samples an iteration takes at least where the volume map's photons follow the samples
+/// (the attempts rule's budget): smaller iterations repeat the per-iteration work too often,
+/// larger maps cost more than their photons (docs/measurements.md, Progressive photon mapping).
+inline constexpr uint64_t kIterationSamples = uint64_t(1) << 20;
+
+/// For the photon methods. A progressive run: iterations of progressive.spp when the scene sets
+/// it; else, under the attempts rule with photons.volume not given, of the least multiple of
+/// render.spp that gives kIterationSamples camera samples; else of render.spp. A plain render of
+/// N = render.spp: progressive.spp given, ceil(N / progressive.spp) iterations of it; else, under
+/// the attempts rule with N x pixels >= 2 kIterationSamples, I = floor(N x pixels /
+/// kIterationSamples) iterations of ceil(N / I) spp; else one iteration of N.
+IterationSize iteration_size(const SceneDesc& desc);
+
+/// The volume map's k: with camera paths ending in it, volume.k not given and a medium whose |g|
+/// is above kMomentGridMaxG (its lookups search the kd-tree), twice the default — a peaked phase
+/// function weighs few of the gathered photons; otherwise volume.k (its default when not given).
+int volume_k(const SceneDesc& desc);
+
+/// resolve_run(desc).plan.
+Plan make_plan(const SceneDesc& desc);
+
+/// The settings that ran, every key but the camera, lights, materials, shapes and media, with
+/// the method's name in render.integrator.
+nlohmann::json settings_json(const RunSetup& setup);
+
+/// FNV-1a of what a resumed progressive run must share with its checkpoint: the resolved run
+/// without progressive.iterations, progressive.time_budget and render.threads.
+uint64_t resumable_fingerprint(const RunSetup& setup);
+
+}  // namespace fogmap

@@ -1,0 +1,141 @@
+// render/run_setup.h: one resolve step turns the scene's keys into what runs — the method, the
+// keys set by rule, the schedule — and the report's settings and the checkpoint fingerprint print
+// from it. Expected values come from the rules' own statements (kAutoGatherDepth, twice the
+// default k for a peaked phase function, a photon per attempt), not from a run of the code.
+
+#include "render/run_setup.h"
+
+#include "scene/scene_desc_json.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+namespace fogmap {
+namespace {
+
+using nlohmann::json;
+
+SceneDesc scene(const json& doc) {
+    SceneDesc desc = scene_desc_from_json(doc, "scene.json");
+    validate(desc);
+    return desc;
+}
+
+/// A VDB cloud (g = 0.85) under sun and sky over a ground, the integrator left to auto, as in
+/// bench/scenes/cloud_ground.json.
+json sunlit_cloud() {
+    return json::parse(R"({
+      "camera": {"width": 160, "height": 120},
+      "lights": [{"type": "sun", "direction": [-0.5, -0.6, -0.62], "irradiance": 3,
+                  "angular_radius_deg": 0.27},
+                 {"type": "environment", "radiance": 0.2}],
+      "materials": {"ground": {"type": "diffuse", "albedo": 0.4}},
+      "shapes": [{"type": "quad", "corner": [-50, 0, -50], "edge_u": [0, 0, 100],
+                  "edge_v": [100, 0, 0], "material": "ground"}],
+      "media": [{"type": "vdb", "file": "cloud.vdb", "sigma_s": 0.099, "sigma_a": 0.001,
+                 "g": 0.85}],
+      "render": {"spp": 4}
+    })");
+}
+
+// Each named integrator is one method; photon splits by where camera paths end.
+TEST(RunSetup, NamedIntegratorsAreOneMethodEach) {
+    json doc = sunlit_cloud();
+    const auto method = [&](const std::string& integrator, int depth) {
+        doc["render"]["integrator"] = integrator;
+        doc["volume"]["gather_depth"] = depth;
+        return resolve_run(scene(doc)).method;
+    };
+    EXPECT_EQ(method("path", 0), Method::Path);
+    EXPECT_EQ(method("guided", 0), Method::Guided);
+    EXPECT_EQ(method("photon", 0), Method::Gather);
+    EXPECT_EQ(method("photon", 2), Method::MapEnd);
+    EXPECT_EQ(resolve_run(scene(doc)).reason, "scene");
+    EXPECT_FALSE(resolve_run(scene(doc)).pilot);
+}
+
+// auto under sun and sky: photon with camera paths ending in the volume map at
+// kAutoGatherDepth, a pilot pending; the scene's file keeps its keys (gather_depth absent).
+TEST(RunSetup, AutoUnderSunAndSkyEndsPathsInTheMapAndLeavesThePickToAPilot) {
+    const SceneDesc file = scene(sunlit_cloud());
+    const RunSetup s = resolve_run(file);
+    EXPECT_EQ(s.method, Method::MapEnd);
+    EXPECT_TRUE(s.pilot);
+    EXPECT_EQ(s.run.volume.gather_depth, kAutoGatherDepth);
+    EXPECT_EQ(file.volume.gather_depth, 0);
+    EXPECT_EQ(file.render.integrator, Integrator::Auto);
+    EXPECT_EQ(s.run.render.integrator, Integrator::Photon);
+    EXPECT_EQ(s.reason.rfind("auto: media under sun", 0), 0u) << s.reason;
+}
+
+// The report's settings are what ran: the cloud's g = 0.85 gathers twice the default k with
+// paths ending in the map (the moment grid serves |g| <= kMomentGridMaxG only), and the volume
+// map's budget is a photon per attempt, a quarter of the camera samples.
+TEST(RunSetup, SettingsPrintWhatRanNotWhatTheFileSaid) {
+    json doc = sunlit_cloud();
+    doc["render"]["spp"] = 64;  // 1.2 M samples: one iteration
+    const RunSetup s = resolve_run(scene(doc));
+    const json settings = settings_json(s);
+    EXPECT_EQ(settings["render"]["integrator"], "photon");
+    EXPECT_EQ(settings["volume"]["k"], 2 * kDefaultVolumeK);
+    EXPECT_EQ(settings["volume"]["gather_depth"], kAutoGatherDepth);
+    const uint64_t samples = 160u * 120u * 64u;
+    const uint64_t attempts = std::max<uint64_t>(samples / 4, kDefaultVolumePhotons);
+    EXPECT_EQ(s.photons.volume_attempts, attempts);
+    EXPECT_EQ(settings["photons"]["volume"], attempts);
+    // A k the scene gives is kept.
+    json given = sunlit_cloud();
+    given["volume"]["k"] = 30;
+    EXPECT_EQ(settings_json(resolve_run(scene(given)))["volume"]["k"], 30);
+}
+
+// The fingerprint hashes what runs: the same run from a key given or left to its rule has one
+// fingerprint; a different budget, another; the iteration count and the threads do not count.
+TEST(RunSetup, FingerprintFollowsWhatRuns) {
+    json doc = sunlit_cloud();
+    doc["render"]["integrator"] = "photon";
+    doc["progressive"]["iterations"] = 4;
+    const uint64_t left = resumable_fingerprint(resolve_run(scene(doc)));
+    json same = doc;  // the rule's own value, given
+    same["photons"]["volume"] = resolve_run(scene(doc)).photons.volume;
+    EXPECT_EQ(resumable_fingerprint(resolve_run(scene(same))), left);
+    json other = doc;
+    other["photons"]["volume"] = 12345;
+    EXPECT_NE(resumable_fingerprint(resolve_run(scene(other))), left);
+    json more = doc;
+    more["progressive"]["iterations"] = 40;
+    more["render"]["threads"] = 1;
+    EXPECT_EQ(resumable_fingerprint(resolve_run(scene(more))), left);
+    // With camera paths ending in the map the default budget, given, is not the rule's (a photon
+    // per attempt): another run, another fingerprint.
+    doc["volume"]["gather_depth"] = 3;
+    json given = doc;
+    given["photons"]["volume"] = kDefaultVolumePhotons;
+    EXPECT_NE(resumable_fingerprint(resolve_run(scene(given))),
+              resumable_fingerprint(resolve_run(scene(doc))));
+}
+
+// A plain photon render of many samples under the attempts rule runs as iterations: the schedule
+// says so in the Plan's integrator line, and render.spp in the settings is an iteration's.
+TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
+    json doc = sunlit_cloud();
+    doc["render"]["integrator"] = "photon";
+    doc["volume"]["gather_depth"] = 3;
+    doc["render"]["spp"] = 512;  // 160 x 120 x 512 = 9.8 M samples: 9 iterations of 57 spp
+    const RunSetup s = resolve_run(scene(doc));
+    ASSERT_TRUE(s.progressive);
+    EXPECT_EQ(s.run.progressive.iterations, 9);
+    EXPECT_EQ(s.run.render.spp, 57);
+    EXPECT_NE(s.plan.integrator.reason.find("render.spp 512 as 9 progressive iterations of 57"),
+              std::string::npos)
+        << s.plan.integrator.reason;
+    // The reason set later (auto's pilot, a sequence's first frame) keeps the schedule's.
+    RunSetup t = s;
+    t.set_reason("picked");
+    EXPECT_EQ(t.plan.integrator.reason, "picked; " + s.schedule);
+}
+
+}  // namespace
+}  // namespace fogmap
