@@ -3,6 +3,7 @@
 
 #include "core/error.h"
 #include "core/frames.h"
+#include "core/hash.h"
 #include "core/image.h"
 #include "core/memory_budget.h"
 #include "core/output_files.h"
@@ -119,6 +120,24 @@ void check_not_an_input(const std::string& output, const std::string& option,
 
 namespace {
 
+/// The size and modification time of every file the scene reads (VDB media, meshes): a resumed
+/// run must read the very files its checkpoint was made from.
+std::string input_stamps(const SceneDesc& desc) {
+    std::string stamps;
+    const auto stamp = [&](const std::string& file) {
+        std::error_code ec;
+        const std::string path = resolve(desc, file);
+        const auto size = fs::file_size(path, ec);
+        const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+        stamps += path + " " + std::to_string(size) + " " + std::to_string(time) + "\n";
+    };
+    for (const MediumDesc& m : desc.media)
+        if (m.type == MediumType::Vdb) stamp(m.file);
+    for (const ShapeDesc& sh : desc.shapes)
+        if (sh.type == ShapeType::Mesh) stamp(sh.file);
+    return stamps;
+}
+
 /// Renders `desc` and writes `exr` and `png` (both complete before either replaces an older one,
 /// core/output_files.h); returns the report.
 Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
@@ -132,10 +151,13 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
     // Checkpoints beside the EXR: written atomically by rank 0 (the last one at the end, so a
     // finished run can be extended), read by every rank on --resume (each needs the count).
     const std::string checkpoint_path = exr + ".checkpoint";
-    const uint64_t fingerprint = resumable_fingerprint(setup);
+    const uint64_t fingerprint =
+        fnv1a(std::to_string(resumable_fingerprint(setup)) + "\n" + input_stamps(setup.run));
     std::optional<Checkpoint> resume;
     if (args.resume && fs::exists(checkpoint_path))
-        resume = read_checkpoint(checkpoint_path, "--resume", fingerprint);
+        resume =
+            read_checkpoint(checkpoint_path, {fingerprint, desc.camera.width, desc.camera.height,
+                                              setup.layered(), kMaxProgressiveIterations});
     Checkpoints checkpoints;
     checkpoints.resume = resume ? &*resume : nullptr;
     checkpoints.every_s = args.checkpoint_every;
@@ -199,6 +221,7 @@ int run_render(const RenderArgs& args) {
         sequence ? std::optional<FrameRange>(parse_frame_range(args.frames, "--frames"))
                  : std::nullopt;
     for (const auto& [path, option] : {std::pair{exr, "-o"}, std::pair{png, "--png"}}) {
+        check_frame_pattern(path, "", option);
         if (sequence && !has_frame_pattern(path))
             throw InputError("", option,
                              "'" + path +
@@ -245,10 +268,21 @@ int run_render(const RenderArgs& args) {
         throw InputError("", "--checkpoint-every",
                          "checkpoints are for progressive photon mapping; expected --iterations N "
                          "or --time-budget S with the photon integrator");
+    // The checkpoint beside each output is a file: a folder there is found before any work.
+    if (args.checkpoint_every > 0.0 || args.resume)
+        for (const int f : range ? range->frames() : std::vector<int>{0}) {
+            const std::string checkpoint = expand_frame(exr, f) + ".checkpoint";
+            std::error_code ec;
+            if (fs::is_directory(checkpoint, ec))
+                throw InputError(checkpoint, args.resume ? "--resume" : "--checkpoint-every",
+                                 "is a folder; expected the checkpoint's file path (or none)");
+        }
     if (args.progressive && !desc.progressive.enabled())
         throw InputError("", "--progressive",
                          "needs --time-budget SECONDS or --iterations N (or progressive.iterations "
                          "or progressive.time_budget in the scene)");
+    for (size_t i = 0; i < desc.media.size(); ++i)
+        check_frame_pattern(desc.media[i].file, desc.path, "/media/" + std::to_string(i) + "/file");
     for (size_t i = 0; i < desc.media.size(); ++i)
         if (!sequence && has_frame_pattern(desc.media[i].file))
             throw InputError(desc.path, "/media/" + std::to_string(i) + "/file",
@@ -269,6 +303,9 @@ int run_render(const RenderArgs& args) {
 
     // Every frame's files exist before any frame is rendered (on every rank's machine).
     const std::vector<int> frames = range->frames();
+    if (!args.quiet && (!args.ranks || args.ranks->rank() == 0))
+        std::fprintf(stderr, "render: %zu frames, %d to %d\n", frames.size(), frames.front(),
+                     frames.back());
     agree_on_input(args.ranks, [&] {
         for (const int f : frames)
             for (size_t i = 0; i < desc.media.size(); ++i) {
@@ -424,9 +461,13 @@ int run_volume(const VolumeArgs& args) {
                          "'" + args.output +
                              "' has no frame pattern; with --frames expected "
                              "one such as volumes/plume.####.vdb (####, $F4 or %04d)");
+    check_frame_pattern(args.output, "", "-o");
     check_output_path(expand_frame(args.output, range.first), "-o");
     create_output_folder(expand_frame(args.output, range.first));
-    for (const int f : range.frames()) {
+    const std::vector<int> frames = range.frames();
+    std::fprintf(stderr, "volume: %zu frames, %d to %d\n", frames.size(), frames.front(),
+                 frames.back());
+    for (const int f : frames) {
         s.time = static_cast<float>(f);
         const std::string path = expand_frame(args.output, f);
         generate_volume(s, path);

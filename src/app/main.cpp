@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     run_with_huge_pages(argv);
     CLI::App app{"fogmap: volumetric photon mapping for OpenVDB smoke, fog and clouds"};
     app.require_subcommand(1);
-    install_output_signal_handlers();    // temp outputs are removed on SIGINT/SIGTERM/SIGHUP
+    install_output_signal_handlers();    // temp outputs are removed on SIGINT/TERM/HUP/QUIT
     enable_vdb_probe("/proc/self/exe");  // OpenVDB reads each file in a child first: vdb_probe.h
 
     RenderArgs render;

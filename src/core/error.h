@@ -23,11 +23,17 @@ struct InputError : std::runtime_error {
           field(std::move(field_)),
           reason(std::move(reason_)) {}
 
+    /// One bounded line: each part is cut to a few kilobytes, so no input, however long, is
+    /// echoed whole (the members keep the parts uncut).
     static std::string format(const std::string& file, const std::string& field,
                               const std::string& reason) {
-        std::string s = file.empty() ? std::string("<command line>") : file;
-        if (!field.empty()) s += ": " + field;
-        return s + ": " + reason;
+        std::string s = file.empty() ? std::string("<command line>") : clip(file, 1024);
+        if (!field.empty()) s += ": " + clip(field, 256);
+        return s + ": " + clip(reason, 4096);
+    }
+    static std::string clip(const std::string& text, size_t max) {
+        if (text.size() <= max) return text;
+        return text.substr(0, max) + "... (" + std::to_string(text.size() - max) + " more bytes)";
     }
 };
 

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <string>
@@ -27,21 +28,26 @@ size_t pattern_at(const std::string& name, size_t i, int* width) {
         while (k < name.size() && std::isdigit(static_cast<unsigned char>(name[k]))) ++k;
         return k;
     };
+    // A width of many digits is "more than any frame needs" (kMaxFrameDigits + 1), not a number.
+    const auto width_of = [&](size_t from, size_t to) {
+        if (to - from > 3) return kMaxFrameDigits + 1;
+        return from == to ? 0 : std::atoi(name.substr(from, to - from).c_str());
+    };
     if (name[i] == '#') {
         size_t k = i;
         while (k < name.size() && name[k] == '#') ++k;
-        *width = static_cast<int>(k - i);
+        *width = static_cast<int>(std::min<size_t>(k - i, kMaxFrameDigits + 1));
         return k - i;
     }
     if (name.compare(i, 2, "$F") == 0) {
         const size_t k = digits_from(i + 2);
-        *width = k > i + 2 ? std::atoi(name.substr(i + 2, k - i - 2).c_str()) : 0;
+        *width = width_of(i + 2, k);
         return k - i;
     }
     if (name[i] == '%') {
         const size_t k = digits_from(i + 1);
         if (k < name.size() && name[k] == 'd') {
-            *width = k > i + 1 ? std::atoi(name.substr(i + 1, k - i - 1).c_str()) : 0;
+            *width = width_of(i + 1, k);
             return k + 1 - i;
         }
     }
@@ -59,7 +65,7 @@ std::vector<int> FrameRange::frames() const {
 FrameRange parse_frame_range(const std::string& text, const std::string& option) {
     const auto fail = [&](const std::string& why) {
         throw InputError("", option,
-                         "found '" + text +
+                         "found '" + InputError::clip(text, 64) +
                              "'; expected FIRST-LAST or FIRST-LAST:STEP (e.g. "
                              "1-48 or 1-48:2)" +
                              (why.empty() ? "" : ": " + why));
@@ -90,6 +96,10 @@ FrameRange parse_frame_range(const std::string& text, const std::string& option)
         fail("frames must lie within ±" + std::to_string(kMaxFrame));
     if (first > last) fail("the first frame is after the last");
     if (step < 1) fail("the step must be >= 1");
+    const long count = (last - first) / step + 1;
+    if (count > kMaxFrameCount)
+        fail("that is " + std::to_string(count) + " frames; at most " +
+             std::to_string(kMaxFrameCount) + " per run");
     return FrameRange{static_cast<int>(first), static_cast<int>(last), static_cast<int>(step)};
 }
 
@@ -98,6 +108,17 @@ bool has_frame_pattern(const std::string& name) {
     for (size_t i = 0; i < name.size(); ++i)
         if (pattern_at(name, i, &width) > 0) return true;
     return false;
+}
+
+void check_frame_pattern(const std::string& name, const std::string& file,
+                         const std::string& field) {
+    int width = 0;
+    for (size_t i = 0; i < name.size(); ++i)
+        if (pattern_at(name, i, &width) > 0 && width > kMaxFrameDigits)
+            throw InputError(file, field,
+                             "a frame pattern padded to more than " +
+                                 std::to_string(kMaxFrameDigits) +
+                                 " digits; expected at most that (frames lie within ±1e8)");
 }
 
 std::string expand_frame(const std::string& name, int frame) {
@@ -109,7 +130,7 @@ std::string expand_frame(const std::string& name, int frame) {
             out += name[i++];
             continue;
         }
-        out += padded(frame, width);
+        out += padded(frame, std::min(width, kMaxFrameDigits));
         i += n;
     }
     return out;

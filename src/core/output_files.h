@@ -3,11 +3,11 @@
 // file of a run as "<path>.tmp-<pid>" beside its target and renames the temps over their targets
 // only after every one was written completely (each write, the fsync and the close checked), so a
 // failed run leaves no half file and destroys no older one. Staged temps sit in a process-wide
-// table: the handlers of install_output_signal_handlers() unlink them on SIGINT, SIGTERM and
-// SIGHUP, then re-raise the signal; SIGXFSZ (a file-size limit) is ignored so that the write fails
-// with EFBIG and is reported. SIGKILL cannot be handled: remove_stale_temps() deletes the temps
-// of processes that no longer run. The table is locked for registration and read lock-free by the
-// handlers (async-signal-safe); one OutputFiles object is used by one thread.
+// table: the handlers of install_output_signal_handlers() unlink them on SIGINT, SIGTERM, SIGHUP
+// and SIGQUIT, then re-raise the signal; SIGXFSZ (a file-size limit) is ignored so that the write
+// fails with EFBIG and is reported. SIGKILL cannot be handled: remove_stale_temps() deletes the
+// temps of processes that no longer run. The table is locked for registration and read lock-free by
+// the handlers (async-signal-safe); one OutputFiles object is used by one thread.
 
 #include "core/error.h"
 
@@ -95,7 +95,7 @@ inline std::string errno_text(int err) { return std::strerror(err ? err : EIO); 
 /// staged). A signal the parent made the process ignore (nohup: SIGHUP) stays ignored.
 inline void install_output_signal_handlers() {
     detail::temp_table.owner.store(static_cast<long>(::getpid()));
-    for (const int sig : {SIGINT, SIGTERM, SIGHUP}) {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
         struct sigaction old {};
         if (sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
         struct sigaction sa {};

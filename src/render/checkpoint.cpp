@@ -1,19 +1,108 @@
 #include "render/checkpoint.h"
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/input_file.h"
 
+#include <algorithm>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
 
 namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap checkpoint 1\n";
+constexpr char kMagic[] = "fogmap checkpoint 2\n";
+constexpr char kOldMagic[] = "fogmap checkpoint 1\n";
+constexpr size_t kFields = 6;  ///< fingerprint, iterations, width, height, layered, count count
+constexpr uint64_t kMaxCheckpointBytes = uint64_t(1) << 40;  ///< the size check comes later
 
 template <class T>
 void put(std::string* out, const T& v) {
     out->append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+/// The bytes of a checkpoint of `shape`'s run.
+uint64_t expected_bytes(const CheckpointShape& shape) {
+    const uint64_t values =
+        3 * uint64_t(shape.width) * uint64_t(shape.height) * (shape.layered ? 1 + kLayerCount : 1);
+    return std::strlen(kMagic) + 8 * (kFields + kRunCounts + 1 + values + 1);
+}
+
+[[noreturn]] void fail(const std::string& path, const char* field, const std::string& why) {
+    throw InputError(path, field, why + "; remove the checkpoint to start again");
+}
+
+/// Reads the fields of a checkpoint whose size and checksum are right.
+class Fields {
+public:
+    explicit Fields(const std::string& bytes) : bytes_(bytes) {}
+    int64_t next() {
+        int64_t v;
+        std::memcpy(&v, bytes_.data() + at_, sizeof v);
+        at_ += sizeof v;
+        return v;
+    }
+    size_t at() const { return at_; }
+
+private:
+    const std::string& bytes_;
+    size_t at_ = std::strlen(kMagic);
+};
+
+/// Fails naming `field` unless the checkpoint's value equals the run's.
+void expect(const std::string& path, const char* field, int64_t found, int64_t wanted,
+            const std::string& what) {
+    if (found != wanted)
+        fail(path, field,
+             std::to_string(found) + "; this run's " + what + " is " + std::to_string(wanted));
+}
+
+/// The file's first bytes (its header line and fingerprint), checked for its kind and format.
+std::string header(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::string head(std::strlen(kMagic) + 8, '\0');
+    in.read(head.data(), std::streamsize(head.size()));
+    head.resize(size_t(in.gcount()));
+    if (head.compare(0, std::strlen(kOldMagic), kOldMagic) == 0)
+        throw InputError(path, "format",
+                         "written by an older fogmap (format 1); remove it to start again");
+    if (head.compare(0, std::strlen(kMagic), kMagic) != 0)
+        throw InputError(path, "format",
+                         "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 2\")");
+    return head;
+}
+
+/// The fields of a checkpoint of the right size and checksum, each checked against the run.
+Checkpoint parse(const std::string& path, const std::string& bytes, const CheckpointShape& shape) {
+    Fields f(bytes);
+    Checkpoint c;
+    c.fingerprint = uint64_t(f.next());
+    const int64_t iterations = f.next();
+    if (iterations < 1 || iterations > shape.max_iterations)
+        fail(
+            path, "iterations",
+            std::to_string(iterations) + "; expected 1 to " + std::to_string(shape.max_iterations));
+    expect(path, "width", f.next(), shape.width, "camera width");
+    expect(path, "height", f.next(), shape.height, "camera height");
+    expect(path, "layers", f.next(), shape.layered ? 1 : 0, "layered film (1 = layers)");
+    expect(path, "counts", f.next(), int64_t(kRunCounts), "number of counts");
+    c.counts.resize(kRunCounts);
+    for (int64_t& v : c.counts) {
+        v = f.next();
+        if (v < 0) fail(path, "counts", "a negative count, " + std::to_string(v));
+    }
+    expect(path, "counts", c.counts[0], iterations, "iteration count (the checkpoint's own)");
+    const int64_t values = f.next();  // its size was checked with the file's
+    c.iterations = int(iterations);
+    c.sum.width = shape.width;
+    c.sum.height = shape.height;
+    c.sum.layered = shape.layered;
+    c.sum.values.resize(size_t(values));
+    std::memcpy(c.sum.values.data(), bytes.data() + f.at(), size_t(values) * sizeof(int64_t));
+    return c;
 }
 
 }  // namespace
@@ -30,51 +119,36 @@ std::string checkpoint_bytes(const Checkpoint& c) {
     put(&out, int64_t(c.sum.values.size()));
     out.append(reinterpret_cast<const char*>(c.sum.values.data()),
                c.sum.values.size() * sizeof(int64_t));
+    put(&out, fnv1a(out));
     return out;
 }
 
-Checkpoint read_checkpoint(const std::string& path, const std::string& option,
-                           uint64_t fingerprint) {
-    constexpr uint64_t kMaxBytes = uint64_t(1) << 36;
-    const std::string bytes = read_input_file(path, option, "checkpoint", kMaxBytes);
-    const auto fail = [&](const std::string& why) { throw InputError(path, option, why); };
-    const size_t magic = std::strlen(kMagic);
-    if (bytes.compare(0, magic, kMagic) != 0)
-        fail("not a fogmap checkpoint (its first line is not \"fogmap checkpoint 1\")");
-    size_t at = magic;
-    const auto get = [&](auto* v) {
-        if (bytes.size() - at < sizeof *v) fail("cut short: the file ends inside its fields");
-        std::memcpy(v, bytes.data() + at, sizeof *v);
-        at += sizeof *v;
-    };
-    Checkpoint c;
-    get(&c.fingerprint);
-    if (c.fingerprint != fingerprint)
-        fail(
-            "written for another scene or other settings (only progressive.iterations, "
-            "progressive.time_budget and render.threads may change between a run and its "
-            "resumption); remove it to start again");
-    int64_t iterations, width, height, layered, n_counts, n_values;
-    get(&iterations);
-    get(&width);
-    get(&height);
-    get(&layered);
-    get(&n_counts);
-    if (n_counts < 0 || n_counts > 64) fail("corrupt: " + std::to_string(n_counts) + " counts");
-    c.counts.resize(size_t(n_counts));
-    for (int64_t& v : c.counts) get(&v);
-    get(&n_values);
-    const int64_t expected = 3 * width * height * (layered ? 1 + kLayerCount : 1);
-    if (iterations < 1 || width < 1 || height < 1 || n_values != expected ||
-        bytes.size() - at != uint64_t(n_values) * sizeof(int64_t))
-        fail("corrupt: its image size and values do not agree");
-    c.iterations = int(iterations);
-    c.sum.width = int(width);
-    c.sum.height = int(height);
-    c.sum.layered = layered != 0;
-    c.sum.values.resize(size_t(n_values));
-    std::memcpy(c.sum.values.data(), bytes.data() + at, size_t(n_values) * sizeof(int64_t));
-    return c;
+Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))
+        throw InputError(path, "--resume", "is a folder; expected a checkpoint file");
+    check_input_file(path, "size", "checkpoint", kMaxCheckpointBytes);
+    const std::string head = header(path);
+    uint64_t fingerprint = 0;
+    if (head.size() == std::strlen(kMagic) + 8)
+        std::memcpy(&fingerprint, head.data() + std::strlen(kMagic), 8);
+    if (fingerprint != shape.fingerprint)
+        fail(path, "fingerprint",
+             "written for another scene, other settings or other input files (only "
+             "progressive.iterations, progressive.time_budget and render.threads may change "
+             "between a run and its resumption, and the input files not at all)");
+    // Read no more than this run's checkpoint takes: a file of another size is named, not loaded.
+    const uint64_t want = expected_bytes(shape);
+    const uint64_t size = std::filesystem::file_size(path, ec);
+    if (size != want)
+        fail(path, "size",
+             std::to_string(size) + " bytes; a checkpoint of this run has " + std::to_string(want));
+    const std::string bytes = read_input_file(path, "size", "checkpoint", want);
+    uint64_t sum;
+    std::memcpy(&sum, bytes.data() + want - 8, 8);
+    if (bytes.size() != want || sum != fnv1a(bytes.substr(0, want - 8)))
+        fail(path, "checksum", "its contents do not match their checksum: the file is corrupt");
+    return parse(path, bytes, shape);
 }
 
 }  // namespace fogmap

@@ -1,9 +1,10 @@
 #pragma once
-// Checkpoints of progressive runs (README, "Rendering on many machines"): after a whole number of
-// iterations, the fixed-point sum of their films (render/film.h, FixedFilm), the summed counts
-// and a fingerprint of the scene and settings, written atomically beside the output. A resumed
-// run adds the remaining iterations to that sum, so it ends with the same image, bit for bit, as
-// a run that was never stopped — at any rank count, since the sums are integers.
+// Checkpoints of progressive runs (docs/distributed.md): after a whole number of iterations, the
+// fixed-point sum of their films (render/film.h, FixedFilm), the summed counts and a fingerprint
+// of the scene, settings and input files, written atomically beside the output with a checksum of
+// all of it. A resumed run adds the remaining iterations to that sum, so it ends with the same
+// image, bit for bit, as a run that was never stopped — at any rank count, since the sums are
+// integers. Nothing in a checkpoint is trusted before it is checked against the run and itself.
 
 #include "render/film.h"
 
@@ -13,19 +14,34 @@
 
 namespace fogmap {
 
+/// The counts a run sums over iterations and ranks (render/pipeline.cpp): the first is the
+/// number of iterations in the sum.
+inline constexpr size_t kRunCounts = 11;
+
 struct Checkpoint {
-    uint64_t fingerprint = 0;     ///< resumable_fingerprint (scene/scene_desc_json.h) of the run
+    uint64_t fingerprint = 0;     ///< of the run and its inputs (app/commands.cpp)
     int iterations = 0;           ///< iterations 1 .. iterations are in `sum`
-    std::vector<int64_t> counts;  ///< the pipeline's summed counts (render/pipeline.cpp)
+    std::vector<int64_t> counts;  ///< the pipeline's summed counts, kRunCounts of them
     FixedFilm sum;
 };
 
-/// The file's bytes: a header line "fogmap checkpoint 1", then the fields, little-endian.
+/// What a checkpoint must hold to resume a run.
+struct CheckpointShape {
+    uint64_t fingerprint = 0;
+    int width = 0, height = 0;  ///< the camera's
+    bool layered = false;       ///< the film has layers (the photon gather)
+    int max_iterations = 0;     ///< the most iterations a run takes
+};
+
+/// The file's bytes: a header line "fogmap checkpoint 2", the fields little-endian, then the
+/// FNV-1a checksum of everything before it.
 std::string checkpoint_bytes(const Checkpoint& c);
 
-/// Reads a checkpoint. Throws InputError{path, option, reason}: unreadable, not a checkpoint,
-/// cut short, or written for another scene or other settings than `fingerprint`.
-Checkpoint read_checkpoint(const std::string& path, const std::string& option,
-                           uint64_t fingerprint);
+/// Reads the checkpoint at `path` for a run of `shape`. Throws InputError{path, FIELD, reason}
+/// (FIELD names the checkpoint's field: format, size, fingerprint, checksum, iterations, width,
+/// height, layers, counts) when the file is unreadable, a folder, not a checkpoint, of another
+/// size than such a run's, written for another scene, settings or input files, corrupt, or its
+/// fields disagree with the run or each other. Reads at most the size such a run's has.
+Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape);
 
 }  // namespace fogmap

@@ -115,6 +115,8 @@ struct Counts {
     }
 };
 
+static_assert(sizeof(Counts) == kRunCounts * sizeof(int64_t), "a checkpoint stores every count");
+
 /// The guide's settings: its radius is the volume gather's.
 GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     GuideSettings g;

@@ -437,7 +437,7 @@ std::string noisy_scene(const test::TempDir& tmp, int size) {
 
 TEST_F(HostileInput, SignalDuringTheWriteKeepsTheOldOutputsAndLeavesNoTemp) {
     const std::string slow = noisy_scene(tmp_, 1024);
-    for (const int sig : {SIGINT, SIGTERM}) {
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
         SCOPED_TRACE("signal " + std::to_string(sig));
         spit(path("out.exr"), "an older render");
         spit(path("out.png"), "an older preview");

@@ -341,14 +341,14 @@ TEST_F(Mpi, SequenceFramesAreDealtToRankGroups) {
 TEST_F(Mpi, ACheckpointOfOtherSettingsIsRefused) {
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const std::string exr = at("c.exr");
-    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 1\n" + std::string(80, '\x01'));
+    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 2\n" + std::string(80, '\x01'));
     const test::RunResult r = run("render -q " + scene +
                                       " --set camera.width=8 --set camera.height=6 "
                                       "--set progressive.iterations=2 --resume -o " +
                                       exr,
                                   0);
     EXPECT_EQ(r.code, 2);
-    EXPECT_NE(r.err.find("c.exr.checkpoint: --resume: written for another scene"),
+    EXPECT_NE(r.err.find("c.exr.checkpoint: fingerprint: written for another scene"),
               std::string::npos)
         << r.err;
     EXPECT_FALSE(fs::exists(exr));

@@ -111,5 +111,27 @@ TEST_F(Sequence, PatternsAndFramesGoTogether) {
     EXPECT_NE(r.err.find("holds a frame pattern; expected --frames"), std::string::npos) << r.err;
 }
 
+// Absurd frame counts and pattern widths fail at once, naming the number, and write nothing; a
+// sequence states its frames before it starts.
+TEST_F(Sequence, AbsurdFrameCountsAndPatternsFailBeforeAnyWork) {
+    test::write_plume_sequence(dir_, 2);
+    test::RunResult r =
+        run("render -q " + at("s.json") + " --frames 1-99999999 -o " + at("out/f.####.exr"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("99999999 frames; at most 100000"), std::string::npos) << r.err;
+    r = run("render -q " + at("s.json") + " --frames 1-2 -o '" + at("out/o.$F999999999.exr") + "'");
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("more than 9 digits"), std::string::npos) << r.err;
+    EXPECT_LT(r.err.size(), 4096u);
+    r = run("volume plume --resolution 8 --frames 1-99999999 -o " + at("gen/p.####.vdb"));
+    EXPECT_EQ(r.code, 2);
+    EXPECT_NE(r.err.find("99999999 frames"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(at("gen")));
+    EXPECT_FALSE(fs::exists(at("out")));
+    r = run("render " + at("s.json") + " --frames 1-2 -o " + at("out/f.####.exr"));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("render: 2 frames, 1 to 2"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace fogmap

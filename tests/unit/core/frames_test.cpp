@@ -47,5 +47,30 @@ TEST(Frames, BadRangesAreInputErrors) {
     }
 }
 
+// A range of more than kMaxFrameCount frames is refused with its count, before any list of them
+// is made; a pattern padded to more digits than any frame has is refused, and expand_frame never
+// pads beyond kMaxFrameDigits (a pattern's width is no allocation size).
+TEST(Frames, AbsurdCountsAndWidthsAreRefusedWithTheirNumbers) {
+    const InputError many =
+        test::catch_input_error([] { parse_frame_range("1-99999999", "--frames"); });
+    EXPECT_NE(many.reason.find("99999999 frames; at most 100000"), std::string::npos)
+        << many.reason;
+    EXPECT_EQ(parse_frame_range("1-200000:2", "--frames").frames().size(), 100000u);
+    for (const char* wide :
+         {"o.$F999999999.exr", "o.%0123456789d.exr", "o.$F10.exr", "o.##########.exr"}) {
+        SCOPED_TRACE(wide);
+        const InputError e = test::catch_input_error([&] { check_frame_pattern(wide, "", "-o"); });
+        EXPECT_EQ(e.field, "-o");
+        EXPECT_NE(e.reason.find("more than 9 digits"), std::string::npos) << e.reason;
+        EXPECT_LE(expand_frame(wide, 7).size(), std::string(wide).size() + 9);
+    }
+    check_frame_pattern("o.$F9.exr", "", "-o");  // nine digits: fine
+    EXPECT_EQ(expand_frame("o.$F9.exr", 7), "o.000000007.exr");
+    // An error line never echoes a long input whole.
+    const InputError e =
+        test::catch_input_error([] { parse_frame_range(std::string(1 << 20, '7'), "--frames"); });
+    EXPECT_LT(std::string(e.what()).size(), 8192u);
+}
+
 }  // namespace
 }  // namespace fogmap
