@@ -33,6 +33,30 @@ inline LightDesc point_light(const Vec3& position, float intensity) {
     return l;
 }
 
+/// A spot at `position` pointing along `direction`: intensity I within cone_angle − cone_delta of
+/// the axis, falling smoothly to 0 at cone_angle (degrees).
+inline LightDesc spot_light(const Vec3& position, const Vec3& direction, float intensity,
+                            float cone_angle_deg = 30.0f, float cone_delta_deg = 5.0f) {
+    LightDesc l = point_light(position, intensity);
+    l.type = LightType::Spot;
+    l.direction = direction;
+    l.cone_angle_deg = cone_angle_deg;
+    l.cone_delta_deg = cone_delta_deg;
+    return l;
+}
+
+/// A one-sided quad light of radiance L, emitting towards edge_u × edge_v.
+inline LightDesc quad_light(const Vec3& corner, const Vec3& edge_u, const Vec3& edge_v,
+                            float radiance) {
+    LightDesc l;
+    l.type = LightType::Quad;
+    l.corner = corner;
+    l.edge_u = edge_u;
+    l.edge_v = edge_v;
+    l.radiance = Color(radiance);
+    return l;
+}
+
 inline ShapeDesc quad(const Vec3& corner, const Vec3& edge_u, const Vec3& edge_v,
                       const std::string& material) {
     ShapeDesc s;

@@ -1,20 +1,30 @@
 #pragma once
-// What several test programs need: a temp folder per test, whole-file reads and writes, the
-// fogmap binary run through the shell with its output captured, the InputError a call must
-// throw, and the rule for tests that need ../shared/volumes (skip, but fail when CI=true).
+// What several test programs need: a temp folder per test, whole-file reads and writes, a density
+// grid written and loaded back, the fogmap binary run through the shell with its output captured,
+// the InputError a call must throw, the rule for tests that need ../shared/volumes (skip, but fail
+// when CI=true), and the statistics stochastic tests derive their tolerances from (sample means
+// with their standard errors, the chi-square statistic and its critical values).
 
 #include "core/error.h"
+#include "core/math.h"
+#include "media/density_grid.h"
+#include "media/volume_gen.h"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace fogmap::test {
 
@@ -31,14 +41,16 @@ inline void spit(const fs::path& p, const std::string& bytes) {
     std::ofstream(p, std::ios::binary) << bytes;
 }
 
-/// A fresh folder for the running test (named after the prefix, the process and the test),
-/// removed at the end.
+/// A fresh folder for the running test (named after the prefix, the process and the test; the
+/// '/' of a parameterised test's name as '_', so the folder is one level), removed at the end.
 class TempDir {
 public:
     explicit TempDir(const std::string& prefix) {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path_ = fs::temp_directory_path() /
-                (prefix + "_" + std::to_string(::getpid()) + "_" + info->name());
+        std::string test = info->name();
+        std::replace(test.begin(), test.end(), '/', '_');
+        path_ =
+            fs::temp_directory_path() / (prefix + "_" + std::to_string(::getpid()) + "_" + test);
         fs::remove_all(path_);
         fs::create_directories(path_);
     }
@@ -57,6 +69,17 @@ public:
 private:
     fs::path path_;
 };
+
+/// The grid "density" of value(i, j, k) on nx × ny × nz voxels (voxel size and translation as
+/// write_float_grid takes them), written to a VDB file in a folder of its own and loaded.
+inline std::shared_ptr<const DensityGrid> density_grid(
+    int nx, int ny, int nz, const std::function<float(int, int, int)>& value,
+    Vec3 voxel_size = Vec3(1.0f), Vec3 translation = Vec3(0.0f)) {
+    const TempDir dir("fogmap_grid");
+    const std::string path = (dir.path() / "density.vdb").string();
+    write_float_grid(path, "density", nx, ny, nz, value, voxel_size, translation);
+    return DensityGrid::load(path, "density", "");
+}
 
 struct RunResult {
     int code = -1;          ///< exit code; -1 when killed by a signal
@@ -117,6 +140,72 @@ inline InputError catch_input_error(const std::function<void()>& f) {
     }
     ADD_FAILURE() << "expected an InputError";
     return InputError("", "", "");
+}
+
+/// Sums of samples and of their squares (T = double, or DVec3 for per-channel figures): the mean
+/// and its standard error sqrt(s² / n), s² the samples' variance about their mean with 1/n
+/// (standard_error) or 1/(n − 1) (standard_error_unbiased), clamped at 0 against rounding.
+template <class T = double>
+struct SampleStats {
+    T sum{0.0}, sum2{0.0};
+    double n = 0.0;
+
+    void add(const T& v) {
+        sum += v;
+        sum2 += v * v;
+        n += 1.0;
+    }
+    T mean() const { return sum / n; }
+    T standard_error() const { return glm::sqrt(spread() / n); }
+    T standard_error_unbiased() const { return glm::sqrt(spread() / (n - 1.0)); }
+
+private:
+    T spread() const {  // E[x²] − E[x]², at least 0
+        const T m = mean();
+        return glm::max(sum2 / n - m * m, T(0.0));
+    }
+};
+
+/// A sample mean and its standard error.
+struct MeanEstimate {
+    double mean = 0.0, standard_error = 0.0;
+};
+
+/// Mean and standard error (1/n variance) of f(0), ..., f(n − 1).
+template <class F>
+MeanEstimate estimate_mean(int n, F&& f) {
+    SampleStats<> s;
+    for (int i = 0; i < n; ++i) s.add(f(i));
+    return {s.mean(), s.standard_error()};
+}
+
+/// FNV-1a, 64 bit, written out here apart from core/hash.h: the checksum a checkpoint ends in.
+inline uint64_t fnv1a_64(const std::string& s) {
+    uint64_t h = 14695981039346656037ull;
+    for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+    return h;
+}
+
+/// Upper quantile of chi-square with k degrees of freedom by the Wilson–Hilferty cube
+/// approximation: k (1 − 2/(9k) + z sqrt(2/(9k)))³, z the standard normal quantile (3.090232
+/// for p = 0.001); good to ~0.1% at k ≈ 100.
+inline double chi_square_quantile(double k, double z) {
+    const double a = 2.0 / (9.0 * k);
+    const double t = 1.0 - a + z * std::sqrt(a);
+    return k * t * t * t;
+}
+
+/// Pearson's statistic Σ (counts[b] − expected[b])² / expected[b].
+inline double chi_square(const std::vector<int>& counts, const std::vector<double>& expected) {
+    double chi2 = 0.0;
+    for (size_t b = 0; b < counts.size(); ++b)
+        chi2 += (counts[b] - expected[b]) * (counts[b] - expected[b]) / expected[b];
+    return chi2;
+}
+
+/// The same against one expected count for every bin.
+inline double chi_square(const std::vector<int>& counts, double expected) {
+    return chi_square(counts, std::vector<double>(counts.size(), expected));
 }
 
 }  // namespace fogmap::test

@@ -14,6 +14,7 @@
 #include "core/output_files.h"
 #include "core/parallel.h"
 #include "core/ranks.h"
+#include "core/rng.h"
 #include "core/timer.h"
 #include "render/pipeline.h"
 #include "scene/scene_desc_json.h"
@@ -62,7 +63,7 @@ constexpr uint64_t kMaxBenchRuns = 1000;
 /// The reference seed differs from the runs' seed: the path tracer draws sample s of a pixel
 /// from Rng(seed, pixel, s), so a reference with the same seed would contain the path rows'
 /// own samples and understate their error.
-constexpr uint64_t kReferenceSeedOffset = 0x5eed5eedull;
+constexpr uint64_t kReferenceSeedOffset = stream::kBenchReference;
 
 /// Splits at commas outside [..], {..} and "..", so JSON values such as [1,2,3] stay whole.
 std::vector<std::string> split_values(const std::string& text) {

@@ -19,7 +19,9 @@ using Mat4 = glm::mat4;
 using DMat4 = glm::dmat4;
 using Color = glm::vec3;  ///< linear RGB radiance, power or reflectance
 
+constexpr double kPiDouble = 3.14159265358979323846;  ///< for sums and angles kept in double
 constexpr float kPi = 3.14159265358979323846f;
+static_assert(kPi == static_cast<float>(kPiDouble), "one π, in float and in double");
 constexpr float kTwoPi = 2.0f * kPi;
 constexpr float kInvPi = 1.0f / kPi;
 constexpr float kInvTwoPi = 1.0f / kTwoPi;
@@ -115,6 +117,10 @@ inline Vec3 offset_point(const Vec3& p, const Vec3& n, float floor) {
     const float scale = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
     return p + std::max(floor, 2e-5f * scale) * n;
 }
+
+/// A shadow ray towards a light sample at distance d stops at d·(1 − kShadowRayEpsilon), so a
+/// surface at the sampled light point itself (a light placed on geometry) is not a blocker.
+constexpr float kShadowRayEpsilon = 1e-4f;
 
 /// Transform a point / a direction by an affine 4x4 matrix.
 inline Vec3 transform_point(const Mat4& m, const Vec3& p) { return Vec3(m * glm::vec4(p, 1.0f)); }

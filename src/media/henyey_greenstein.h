@@ -13,8 +13,8 @@ namespace fogmap {
 inline float hg_phase(float cos_theta, float g) {
     const double gd = g;
     const double denom = 1.0 + gd * gd - 2.0 * gd * static_cast<double>(cos_theta);
-    return static_cast<float>((1.0 - gd * gd) / (4.0 * 3.14159265358979323846 * denom *
-                                                 std::sqrt(std::max(denom, 1e-300))));
+    return static_cast<float>((1.0 - gd * gd) /
+                              (4.0 * kPiDouble * denom * std::sqrt(std::max(denom, 1e-300))));
 }
 
 namespace detail {
@@ -32,7 +32,7 @@ inline double hg_sample_one_minus_cos(double g, double u, double* phase) {
     const double omm =
         std::min(2.0, std::max(0.0, (1.0 - ga) * (1.0 - s) * (q + 1.0 - ga) / (2.0 * gs)));
     const double denom = (1.0 - ga) * (1.0 - ga) + 2.0 * ga * omm;
-    *phase = (1.0 - ga * ga) / (4.0 * 3.14159265358979323846 * denom * std::sqrt(denom));
+    *phase = (1.0 - ga * ga) / (4.0 * kPiDouble * denom * std::sqrt(denom));
     return omm;
 }
 
@@ -54,7 +54,7 @@ inline Vec3 hg_sample(const Vec3& dir, float g, Vec2 u, float* pdf) {
     const double mu = g < 0.0f ? omm - 1.0 : 1.0 - omm;
     const double sin_theta = std::sqrt(omm * (2.0 - omm));
     *pdf = static_cast<float>(phase);
-    const double phi = 2.0 * 3.14159265358979323846 * u.y;
+    const double phi = 2.0 * kPiDouble * u.y;
     const Vec3 local(static_cast<float>(sin_theta * std::cos(phi)),
                      static_cast<float>(sin_theta * std::sin(phi)), static_cast<float>(mu));
     return glm::normalize(to_world(local, dir));

@@ -1,6 +1,7 @@
 #include "media/medium.h"
 
 #include "core/error.h"
+#include "core/rng.h"
 
 #include <glm/gtc/matrix_inverse.hpp>
 
@@ -163,7 +164,7 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
     Sampler s(*this);
     double accepted = 0.0;
     for (int i = 0; i < kSamples; ++i) {
-        Rng rng(0x454d495353ull, static_cast<uint64_t>(i));
+        Rng rng(stream::kEmissionPower, static_cast<uint64_t>(i));
         float bound;
         const Vec3 p = s.emission_point(rng, &bound);
         accepted += average(s.density(p) * params_.sigma_a * s.emission(p)) / double(bound);

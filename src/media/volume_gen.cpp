@@ -73,7 +73,7 @@ class Noise {
 public:
     /// `drift`: the noise field moves by it (noise units), so a sequence's eddies rise.
     explicit Noise(uint64_t seed, const Vec3& drift = Vec3(0.0f))
-        : seed_(mix64(seed ^ 0x5EEDF06ull)), drift_(drift) {}
+        : seed_(mix64(seed ^ stream::kNoise)), drift_(drift) {}
 
     /// Gradient noise, roughly in [-1, 1], 0 at integer lattice points.
     float gradient(const Vec3& p) const {

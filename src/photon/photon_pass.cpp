@@ -671,7 +671,7 @@ void PhotonPass::report_streams() {
     }
     const float total = result_.total_power;
     result_.capped_power = total > 0.0f ? capped_power / total : 0.0;
-    if (result_.capped_power > 0.001) {
+    if (result_.capped_power > kCapWarnShare) {
         char text[200];
         std::snprintf(text, sizeof text,
                       "photons.max_bounces = %d cut %llu photon paths carrying %.2g%% of the "

@@ -279,7 +279,8 @@ private:
     /// A photon of stream s in map m carries Φ_s / behind(s, m); the map's photon power is the
     /// largest and each record's relative power is rescaled to it. Notes why a map is short.
     void weigh_map(int m);
-    /// Streams' attempts, and the power photons.max_bounces cut (with a warning above 0.1%).
+    /// Streams' attempts, and the power photons.max_bounces cut (a warning above
+    /// kCapWarnShare).
     void report_streams();
 
     const Scene& scene_;

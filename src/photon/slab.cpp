@@ -1,6 +1,7 @@
 #include "photon/slab.h"
 
 #include "core/error.h"
+#include "core/rng.h"
 #include "core/timer.h"
 #include "media/volume_gen.h"
 #include "photon/photon_pass.h"
@@ -21,7 +22,7 @@ namespace fogmap {
 
 namespace {
 
-constexpr uint64_t kSlabStream = 0x534C4142ull;  // "SLAB": never a photon pass or pixel stream
+constexpr uint64_t kSlabStream = stream::kSlab;
 constexpr uint64_t kChunk = 1024;
 
 // Geometry (world units = slab thicknesses). The grid's voxel (i, j, k) sits at index point
@@ -47,7 +48,7 @@ constexpr float kWidth = 200.0f;
 struct Tally {
     double sum[3] = {0.0, 0.0, 0.0};
     double sum2[4] = {0.0, 0.0, 0.0, 0.0};  // squares of the three, and of down = [1] + [2]
-    double capped_power = 0.0;               // power of the paths the bounce cap cut
+    double capped_power = 0.0;              // power of the paths the bounce cap cut
     uint64_t absorbed = 0, bounce_cap = 0, edge = 0;
 
     void add(const Tally& o) {
@@ -57,6 +58,27 @@ struct Tally {
         absorbed += o.absorbed;
         bounce_cap += o.bounce_cap;
         edge += o.edge;
+    }
+
+    // Tallies a photon's path; `uniform_half`: the half width of the slab's uniform part.
+    void record(const TracedPath& path, float uniform_half) {
+        if (path.interactions > 0 &&
+            (std::abs(path.ray.o.x) > uniform_half || std::abs(path.ray.o.z) > uniform_half))
+            ++edge;
+        if (path.end == PathEnd::Absorbed) {
+            ++absorbed;
+            return;
+        }
+        if (path.end == PathEnd::BounceCap) {
+            ++bounce_cap;
+            capped_power += average(path.power);
+            return;
+        }
+        const double power = average(path.power);
+        const int bin = path.ray.d.y > 0.0f ? 0 : path.interactions == 0 ? 1 : 2;
+        sum[bin] += power;
+        sum2[bin] += power * power;
+        if (bin > 0) sum2[3] += power * power;  // up and down exclude each other
     }
 };
 
@@ -86,6 +108,52 @@ struct TempFile {
     }
 };
 
+// The slab of optical thickness `tau` and `width` (Geometry above) as a scene: its grid written
+// to a temp VDB file, loaded, and the file removed.
+std::unique_ptr<Scene> slab_scene(const SlabSettings& s, double tau, float width) {
+    TempFile vdb;
+    const float hy = 1.0f / static_cast<float>(s.voxels);
+    write_float_grid(
+        vdb.path, "density", 2, s.voxels, 2, [](int, int, int) { return 1.0f; },
+        Vec3(width, hy, width), Vec3(-0.5f * width, -1.0f + 0.5f * hy, -0.5f * width));
+    SceneDesc desc;
+    desc.path = "<slab>";
+    MediumDesc m;
+    m.type = MediumType::Vdb;
+    m.file = vdb.path;
+    m.sigma_s = Color(static_cast<float>(s.albedo * tau));  // tau per unit thickness
+    m.sigma_a = Color(static_cast<float>((1.0 - s.albedo) * tau));
+    m.g = static_cast<float>(s.g);
+    desc.media.push_back(m);
+    return load_scene(desc);
+}
+
+// The beam's s.photons photons through the slab of `width`, tallied in chunks of kChunk merged
+// in index order.
+Tally trace_beam(const SlabSettings& s, const Scene& scene, const PhotonTracer& tracer,
+                 float width) {
+    const float uniform_half = 0.5f * width, beam = width / kWidth;
+    const uint64_t chunks = (s.photons + kChunk - 1) / kChunk;
+    std::vector<Tally> tallies(chunks);
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
+        std::vector<Medium::Sampler> samplers;
+        for (const Medium& medium : scene.media) samplers.emplace_back(medium);
+        for (uint64_t c = r.begin(); c != r.end(); ++c)
+            for (uint64_t i = c * kChunk; i < std::min(s.photons, (c + 1) * kChunk); ++i) {
+                Rng rng(s.seed, i, kSlabStream);
+                // Collimated, normal incidence, entering within ½ thickness of the axis (scaled as
+                // the width).
+                const Vec3 o(beam * (rng.uniform() - 0.5f), 1.0f, beam * (rng.uniform() - 0.5f));
+                tallies[c].record(tracer.trace(Ray{o, Vec3(0.0f, -1.0f, 0.0f)}, Color(1.0f), rng,
+                                               samplers, 0, nullptr),
+                                  uniform_half);
+            }
+    });
+    Tally total;
+    for (const Tally& t : tallies) total.add(t);
+    return total;
+}
+
 }  // namespace
 
 double semi_infinite_tau(int max_bounces) {
@@ -110,67 +178,15 @@ SlabResult run_slab(const SlabSettings& s) {
     // (and a huge finite tau would leave float positions unable to advance a free path).
     result.tau_model = std::min(s.tau, semi_infinite_tau(s.max_bounces));
     result.tau_per_voxel = result.tau_model / s.voxels;
-
-    TempFile vdb;
-    const float hy = 1.0f / static_cast<float>(s.voxels);
     const float width = kWidth * static_cast<float>(std::min(1.0, 100.0 / result.tau_model));
-    write_float_grid(
-        vdb.path, "density", 2, s.voxels, 2, [](int, int, int) { return 1.0f; },
-        Vec3(width, hy, width), Vec3(-0.5f * width, -1.0f + 0.5f * hy, -0.5f * width));
-    SceneDesc desc;
-    desc.path = "<slab>";
-    MediumDesc m;
-    m.type = MediumType::Vdb;
-    m.file = vdb.path;
-    const double tau = result.tau_model;  // per unit thickness
-    m.sigma_s = Color(static_cast<float>(s.albedo * tau));
-    m.sigma_a = Color(static_cast<float>((1.0 - s.albedo) * tau));
-    m.g = static_cast<float>(s.g);
-    desc.media.push_back(m);
-    const std::unique_ptr<Scene> scene = load_scene(desc);
+    const std::unique_ptr<Scene> scene = slab_scene(s, result.tau_model, width);
 
     MarchSettings march;
     march.method = s.method;
     march.step_voxels = s.step_voxels;
-    const PhotonTracer tracer(*scene, march, s.max_bounces);  // stores nothing: no map takes photons
+    const PhotonTracer tracer(*scene, march, s.max_bounces);  // no map: it stores nothing
     result.delta_in_march = s.method == FreePathMethod::March && tracer.marcher().any_stiff();
-    const float uniform_half = 0.5f * width, beam = width / kWidth;
-    const uint64_t chunks = (s.photons + kChunk - 1) / kChunk;
-    std::vector<Tally> tallies(chunks);
-    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, chunks, 1), [&](const auto& r) {
-        std::vector<Medium::Sampler> samplers;
-        for (const Medium& medium : scene->media) samplers.emplace_back(medium);
-        for (uint64_t c = r.begin(); c != r.end(); ++c) {
-            Tally& t = tallies[c];
-            for (uint64_t i = c * kChunk; i < std::min(s.photons, (c + 1) * kChunk); ++i) {
-                Rng rng(s.seed, i, kSlabStream);
-                // Collimated, normal incidence, entering within ½ thickness of the axis (scaled as
-                // the width).
-                const Vec3 o(beam * (rng.uniform() - 0.5f), 1.0f, beam * (rng.uniform() - 0.5f));
-                const TracedPath path = tracer.trace(Ray{o, Vec3(0.0f, -1.0f, 0.0f)}, Color(1.0f),
-                                                     rng, samplers, 0, nullptr);
-                if (path.interactions > 0 && (std::abs(path.ray.o.x) > uniform_half ||
-                                              std::abs(path.ray.o.z) > uniform_half))
-                    ++t.edge;
-                if (path.end == PathEnd::Absorbed) {
-                    ++t.absorbed;
-                    continue;
-                }
-                if (path.end == PathEnd::BounceCap) {
-                    ++t.bounce_cap;
-                    t.capped_power += average(path.power);
-                    continue;
-                }
-                const double power = average(path.power);
-                const int bin = path.ray.d.y > 0.0f ? 0 : path.interactions == 0 ? 1 : 2;
-                t.sum[bin] += power;
-                t.sum2[bin] += power * power;
-                if (bin > 0) t.sum2[3] += power * power;  // up and down exclude each other
-            }
-        }
-    });
-    Tally total;
-    for (const Tally& t : tallies) total.add(t);
+    const Tally total = trace_beam(s, *scene, tracer, width);
     result.rd = estimate(total.sum[0], total.sum2[0], s.photons);
     result.unscattered = estimate(total.sum[1], total.sum2[1], s.photons);
     result.td = estimate(total.sum[2], total.sum2[2], s.photons);

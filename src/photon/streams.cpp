@@ -1,5 +1,6 @@
 #include "photon/streams.h"
 
+#include "core/rng.h"
 #include "core/sampling.h"
 #include "scene/shadow.h"
 
@@ -71,7 +72,7 @@ void add_bounce_stream(const Scene& scene, int media, StreamSet* set) {
     s.light = -1;
     s.target = media;
     s.region_power = 4.0 * kPi * kPi * double(t.radius) * t.radius * radiance;
-    s.key = mix64(0x424f554e4345ull);
+    s.key = mix64(stream::kPhotonBounce);
     s.name = "diffuse bounce → media";
     set->bounce = static_cast<int>(set->streams.size());
     set->streams.push_back(s);
@@ -174,7 +175,7 @@ void add_light_streams(const Scene& scene, size_t li, const StreamTarget& world,
         s.target = target;
         s.region_power = region_power;
         s.color = power / static_cast<float>(avg);
-        s.key = mix64(0x5354524541ull + li * 0x100 + static_cast<uint64_t>(target + 1));
+        s.key = mix64(stream::kPhotonLight + li * 0x100 + static_cast<uint64_t>(target + 1));
         s.name = light_name + " → " + (target < 0 ? "rest" : set->targets[target].name);
         set->streams.push_back(s);
     };
@@ -236,7 +237,7 @@ void add_emission_streams(const Scene& scene, StreamSet* set) {
         s.light = -1;
         s.medium = static_cast<int>(i);
         s.region_power = power;
-        s.key = mix64(0x454d4954ull * 0x100 + i);
+        s.key = mix64(stream::kPhotonEmission * 0x100 + i);
         s.name = "medium " + std::to_string(i) + " emission";
         set->streams.push_back(s);
     }

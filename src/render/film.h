@@ -24,12 +24,14 @@
 namespace fogmap {
 
 /// Additive parts of the beauty image, each its own EXR layer. A new layer: one enumerator and
-/// its name below.
+/// its name below (kLayerCount counts to the last enumerator; the static_assert checks the two).
 enum class Layer { Direct, VolumeSingle, VolumeMultiple, Caustic, Indirect, Emission };
-inline constexpr int kLayerCount = 6;
+inline constexpr int kLayerCount = static_cast<int>(Layer::Emission) + 1;  ///< Emission is last
 /// EXR layer names, in Layer order.
-inline constexpr std::array<const char*, kLayerCount> kLayerNames{
-    "direct", "volume_single", "volume_multiple", "caustic", "indirect", "emission"};
+inline constexpr std::array kLayerNames{"direct",  "volume_single", "volume_multiple",
+                                        "caustic", "indirect",      "emission"};
+static_assert(kLayerNames.size() == size_t(kLayerCount),
+              "one name per Layer, and kLayerCount up to the last one");
 
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {

@@ -17,7 +17,7 @@ ImageError image_error(const Image& image, const Image& reference) {
             const double x = image.pixels[i][c], y = reference.pixels[i][c];
             const double d = x - y;
             se += d * d;
-            rel += d * d / (y * y + 0.01);
+            rel += relative_squared_error(d * d, y);
             bias += d;
         }
     }

@@ -1,5 +1,6 @@
 #include "render/path_tracer.h"
 
+#include "core/error.h"
 #include "core/sampling.h"
 #include "media/phase.h"
 #include "render/camera.h"
@@ -62,9 +63,36 @@ struct PathTracer::Lobe {
     const Vec2* sky_u = nullptr;        // the environment's light sample from these uniforms
 };
 
-PathTracer::PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide,
-                       const VolumeMapEnd* end, const SunShadows* sun, const AdjointSplit* adjoint)
-    : scene_(scene), max_depth_(max_depth), guide_(guide), end_(end), sun_(sun), adjoint_(adjoint) {
+PathPolicy PathPolicy::plain(const SunShadows* sun) {
+    PathPolicy p(MediumVertex::Continue);
+    p.sun_ = sun;
+    return p;
+}
+
+PathPolicy PathPolicy::guided(const VolumeGuide* guide, const AdjointSplit& split) {
+    FOGMAP_ASSERT(split.grid && split.pixels,
+                  "guided paths need the adjoint grid and pixel estimate");
+    PathPolicy p(MediumVertex::Guided);
+    p.guide_ = guide;
+    p.split_ = split;
+    return p;
+}
+
+PathPolicy PathPolicy::pixel_estimate(const AdjointGrid& grid) {
+    PathPolicy p(MediumVertex::EndInGrid);
+    p.split_ = AdjointSplit{&grid, nullptr};
+    return p;
+}
+
+PathPolicy PathPolicy::end_in_map(const VolumeMapEnd& end, const SunShadows* sun) {
+    PathPolicy p(MediumVertex::EndInMap);
+    p.end_ = &end;
+    p.sun_ = sun;
+    return p;
+}
+
+PathTracer::PathTracer(const Scene& scene, int max_depth, const PathPolicy& policy)
+    : scene_(scene), max_depth_(max_depth), policy_(policy) {
     for (const Light& l : scene.lights)
         has_point_lights_ |= l.type == LightType::Point || l.type == LightType::Spot;
     for (const Medium& m : scene.media) emissive_ |= m.emission() != nullptr;
@@ -119,8 +147,8 @@ Color PathTracer::point_lights_in_segment(const Ray& ray, float t_max, Rng& rng,
         if (ls.pdf <= 0.0f || max_component(ls.Li) <= 0.0f) continue;
         const Color T_view = ratio_track(ts.media, ray, t, rng);
         if (max_component(T_view) <= 0.0f) continue;
-        const Color T_light = shadow_transmittance(scene_, ts.media, Ray{x, ls.wi},
-                                                   ls.dist * (1.0f - 1e-4f), rng, &ts.rays);
+        const Color T_light = shadow_transmittance(
+            scene_, ts.media, Ray{x, ls.wi}, ls.dist * (1.0f - kShadowRayEpsilon), rng, &ts.rays);
         const float phase = PhaseMix(ts.media, x).eval(glm::dot(ray.d, ls.wi));
         sum += T_view * sigma_s * phase * ls.Li * T_light / pdf;
     }
@@ -157,26 +185,15 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
         float lobe_pdf;
         if (lobe.phase) {
             f = Color(lobe.phase->eval(glm::dot(lobe.dir, s.wi)));
-            lobe_pdf = lobe.guide ? guide_->pdf(*lobe.guide, *lobe.phase, lobe.dir, s.wi) : f.x;
+            lobe_pdf =
+                lobe.guide ? policy_.guide().pdf(*lobe.guide, *lobe.phase, lobe.dir, s.wi) : f.x;
         } else {
             const float cos = glm::dot(lobe.dir, s.wi);
             if (cos <= 0.0f) continue;
             lobe_pdf = cos * kInvPi;
             f = lobe.albedo * lobe_pdf;
         }
-        Color T;
-        if (sun_ && sun_->covers(li)) {  // surfaces by Embree, media from the grid
-            bool blocked = false;
-            if (scene_.surfaces) {
-                ++ts.rays;
-                blocked = scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist);
-            }
-            ++ts.lookups;
-            T = blocked ? Color(0.0f) : sun_->transmittance(li, origin);
-        } else {
-            T = shadow_transmittance(scene_, ts.media, Ray{origin, s.wi}, s.dist * (1.0f - 1e-4f),
-                                     rng, &ts.rays);
-        }
+        const Color T = shadow(li, origin, s, rng, ts);
         if (max_component(T) <= 0.0f) continue;
         // A path that ends here has no phase-sampled ray to take the rest of the MIS weight.
         const float w = light.is_delta() || lobe.last ? 1.0f : power_heuristic(s.pdf, lobe_pdf);
@@ -185,9 +202,22 @@ Color PathTracer::direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, Thread
     return sum;
 }
 
+Color PathTracer::shadow(size_t li, const Vec3& origin, const LightSample& s, Rng& rng,
+                         ThreadState& ts) const {
+    if (!policy_.sun_covers(li))
+        return shadow_transmittance(scene_, ts.media, Ray{origin, s.wi},
+                                    s.dist * (1.0f - kShadowRayEpsilon), rng, &ts.rays);
+    bool blocked = false;  // surfaces by Embree, media from the grid
+    if (scene_.surfaces) {
+        ++ts.rays;
+        blocked = scene_.surfaces->occluded(Ray{origin, s.wi}, 0.0f, s.dist);
+    }
+    ++ts.lookups;
+    return blocked ? Color(0.0f) : policy_.sun().transmittance(li, origin);
+}
+
 // A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
-// volume map (VolumeMapEnd::ends_at) or a phase (or guide) sampled direction for p. False: the
-// path ends here.
+// path's end (ends_here) or a phase (or guide) sampled direction for p. False: the path ends here.
 bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
     if (p.depth >= max_depth_) {
         ++ts.capped;
@@ -196,68 +226,87 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     const PixelSample* first = p.depth == 0 ? p.strata : nullptr;
     ++p.depth;
     const PhaseMix phase(ts.media, x);
-    const bool map_end = end_ && end_->ends_at(x, ++p.gather_vertices);
-    if (map_end || (adjoint_ && !adjoint_->pixels)) {
-        // Direct light by a shadow ray, the rest from the map (render_pixel_estimate: from L̃);
-        // the path ends here.
-        *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
-        ++ts.lookups;
-        if (map_end) {
-            ts.neighbors.clear();
-            *L += p.beta * end_->inscattered(x, p.ray.d, phase, ts.neighbors);
-            ts.gathered += ts.neighbors.size();
-        } else {
-            *L += p.beta * adjoint_->grid->at(x, p.ray.d, phase);
-        }
+    if (ends_here(p, x)) {
+        end_path(p, x, phase, L, rng, ts);
         return false;
     }
-    const bool guided = guide_ && p.depth <= guide_->settings().vertices;
+    const bool guided = policy_.guides(p.depth);
     if (guided) {
         ++ts.lookups;
-        guide_->prepare(x, p.ray.d, phase, ts.neighbors, &ts.lobes);
+        policy_.guide().prepare(x, p.ray.d, phase, ts.neighbors, &ts.lobes);
         ts.gathered += ts.neighbors.size();
     }
-    const GuideLobes* lobes = guided ? &ts.lobes : nullptr;
     Vec2 sky_u;
     if (first) sky_u = stratified(*first, kSkyDim, Vec2(rng.uniform(), rng.uniform()));
-    Lobe lobe{&phase, p.ray.d, Color(0.0f), lobes};
+    Lobe lobe{&phase, p.ray.d, Color(0.0f), guided ? &ts.lobes : nullptr};
     if (first) lobe.sky_u = &sky_u;
     const Color direct = direct_light(x, lobe, rng, ts);
     *L += p.beta * direct;
-    const bool splits = adjoint_ && ts.pixel_estimate > 0.0f;  // split() plays the roulette
+    // split() plays the roulette.
+    const bool splits = policy_.kind() == MediumVertex::Guided && ts.pixel_estimate > 0.0f;
     const int copies = splits ? split(p, x, phase, direct, rng, ts) : 1;
     if (copies == 0) return false;
-    const auto next_direction = [&](Path& q, bool stratify) {
-        Vec3 wi;
-        if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
-            wi = guide_->sample(ts.lobes, phase, q.ray.d, rng, &q.prev_pdf);
-            q.env_pdf = phase.eval(glm::dot(q.ray.d, wi));
-            q.beta *= q.env_pdf / q.prev_pdf;
-        } else if (stratify) {
-            const float pick_u = rng.uniform();
-            const Vec2 u = stratified(*first, kDirectionDim, Vec2(rng.uniform(), rng.uniform()));
-            wi = phase.sample(q.ray.d, pick_u, u, &q.prev_pdf);
-            q.env_pdf = q.prev_pdf;
-        } else {
-            wi = phase.sample(q.ray.d, rng, &q.prev_pdf);  // weight phase/pdf = 1
-            q.env_pdf = q.prev_pdf;
-        }
-        q.specular = false;
-        q.prev_p = x;
-        q.ray = Ray{x, wi};
-    };
     if (copies > 1) {  // every copy's direction before any is traced (tracing overwrites ts.lobes)
         std::array<Path, AdjointSplit::kMaxSplit - 1> more;
         for (int c = 0; c + 1 < copies; ++c) {
             more[c] = p;
-            next_direction(more[c], false);
+            next_direction(more[c], x, phase, guided, nullptr, rng, ts);
         }
-        next_direction(p, first != nullptr);
+        next_direction(p, x, phase, guided, first, rng, ts);
         for (int c = 0; c + 1 < copies; ++c) *L += trace(more[c], rng, ts);
         return true;
     }
-    next_direction(p, first != nullptr);
+    next_direction(p, x, phase, guided, first, rng, ts);
     return splits || survive(p.depth, &p.beta, rng);
+}
+
+bool PathTracer::ends_here(Path& p, const Vec3& x) const {
+    switch (policy_.kind()) {
+        case MediumVertex::EndInMap:
+            return policy_.end().ends_at(x, ++p.gather_vertices);
+        case MediumVertex::EndInGrid:
+            return true;
+        case MediumVertex::Continue:
+        case MediumVertex::Guided:
+            return false;
+    }
+    return false;
+}
+
+// Direct light by a shadow ray (the whole of its MIS weight: no direction is sampled after it),
+// the rest from the map or from L̃.
+void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, Color* L, Rng& rng,
+                          ThreadState& ts) const {
+    *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
+    ++ts.lookups;
+    if (policy_.kind() == MediumVertex::EndInMap) {
+        ts.neighbors.clear();
+        *L += p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors);
+        ts.gathered += ts.neighbors.size();
+    } else {
+        *L += p.beta * policy_.split().grid->at(x, p.ray.d, phase);
+    }
+}
+
+void PathTracer::next_direction(Path& q, const Vec3& x, const PhaseMix& phase, bool guided,
+                                const PixelSample* strata, Rng& rng, ThreadState& ts) const {
+    Vec3 wi;
+    if (guided) {  // one-sample MIS of phase and guide: weight f / p_mix
+        wi = policy_.guide().sample(ts.lobes, phase, q.ray.d, rng, &q.prev_pdf);
+        q.env_pdf = phase.eval(glm::dot(q.ray.d, wi));
+        q.beta *= q.env_pdf / q.prev_pdf;
+    } else if (strata) {
+        const float pick_u = rng.uniform();
+        const Vec2 u = stratified(*strata, kDirectionDim, Vec2(rng.uniform(), rng.uniform()));
+        wi = phase.sample(q.ray.d, pick_u, u, &q.prev_pdf);
+        q.env_pdf = q.prev_pdf;
+    } else {
+        wi = phase.sample(q.ray.d, rng, &q.prev_pdf);  // weight phase/pdf = 1
+        q.env_pdf = q.prev_pdf;
+    }
+    q.specular = false;
+    q.prev_p = x;
+    q.ray = Ray{x, wi};
 }
 
 // AdjointSplit (path_tracer.h): n = ⌈β (L̃ + direct) / Ĩ⌉ copies above the window, one path
@@ -265,8 +314,8 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
 int PathTracer::split(Path& p, const Vec3& x, const PhaseMix& phase, const Color& direct, Rng& rng,
                       ThreadState& ts) const {
     ++ts.lookups;
-    const float ratio =
-        average(p.beta * (adjoint_->grid->at(x, p.ray.d, phase) + direct)) / ts.pixel_estimate;
+    const float ratio = average(p.beta * (policy_.split().grid->at(x, p.ray.d, phase) + direct)) /
+                        ts.pixel_estimate;
     if (!(ratio >= AdjointSplit::kBelow)) return survive(p.depth, &p.beta, rng) ? 1 : 0;
     if (ratio <= AdjointSplit::kAbove) return 1;
     const int n = std::min({int(std::ceil(ratio)), AdjointSplit::kMaxSplit, 1 + ts.splits_left});
@@ -280,12 +329,13 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
     Path p;
     p.ray = camera_ray;
     p.strata = strata;
-    if (adjoint_ && adjoint_->pixels) {
-        ts.pixel_estimate = strata ? average(adjoint_->pixels->at(strata->x, strata->y)) : 0.0f;
+    if (policy_.kind() == MediumVertex::Guided) {
+        const Image& pixels = *policy_.split().pixels;
+        ts.pixel_estimate = strata ? average(pixels.at(strata->x, strata->y)) : 0.0f;
         ts.splits_left = AdjointSplit::kSplitBudget;
     }
     p.prev_p = camera_ray.o;
-    if (ts.media.empty() || !end_) return trace(p, rng, ts);
+    if (ts.media.empty() || policy_.kind() != MediumVertex::EndInMap) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
 }
 
@@ -322,40 +372,21 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
                         const std::optional<SurfaceHit>* first_hit) const {
     Color L(0.0f);
     for (bool first = true;; first = false) {
+        const bool picked = first && first_hit;  // this segment's hit and media: pick_segment's
         std::optional<SurfaceHit> hit;
-        float t_max = kInfinity;
-        if (first && first_hit) {
+        if (picked) {
             hit = *first_hit;
         } else if (scene_.surfaces) {
             ++ts.rays;
             hit = scene_.surfaces->intersect(p.ray, 0.0f, kInfinity);
         }
-        if (hit) t_max = hit->t;
-        if (!ts.media.empty() && !(first && first_hit)) {  // else done by pick_segment
-            if (has_point_lights_ && p.depth < max_depth_)
-                L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
-            Color emitted(0.0f);
-            const TrackResult tr = delta_track(ts.media, p.ray, t_max, rng, &p.beta,
-                                               Collision::Weighted, emissive_ ? &emitted : nullptr);
-            L += emitted;
-            if (tr.event == TrackEvent::Absorbed) break;
-            if (tr.event == TrackEvent::Scattered) {
-                if (!scatter(p, p.ray.at(tr.t), &L, rng, ts)) break;
-                continue;
-            }
+        if (!ts.media.empty() && !picked) {
+            const Segment s = media_segment(p, hit ? hit->t : kInfinity, &L, rng, ts);
+            if (s == Segment::Ended) break;
+            if (s == Segment::Scattered) continue;
         }
         if (!hit) {
-            for (const Light& light : scene_.lights) {
-                if (!light.is_infinite()) continue;
-                const Color Le = escaped_radiance(light, p.ray.d);
-                if (max_component(Le) <= 0.0f) continue;
-                // The environment's light sample had the lobe's own pdf (direct_light).
-                const float light_p = light.type == LightType::Environment
-                                          ? p.env_pdf
-                                          : light_pdf(light, p.prev_p, p.ray.d, kInfinity);
-                const float w = p.specular ? 1.0f : power_heuristic(p.prev_pdf, light_p);
-                L += p.beta * Le * w;
-            }
+            add_escaped(p, &L);
             break;
         }
         if (hit->light >= 0) {  // quad lights are black emitters
@@ -368,49 +399,80 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
             L += p.beta * Le * w;
             break;
         }
-        if (hit->material < 0) break;
-        if (p.depth >= max_depth_) {
-            ++ts.capped;
-            break;
-        }
-        const PixelSample* strata = p.depth == 0 ? p.strata : nullptr;
-        ++p.depth;
-        const Material& mat = scene_.materials[hit->material];
-        const Vec3 n = glm::dot(p.ray.d, hit->ng) < 0.0f ? hit->ng : -hit->ng;  // faces the ray
-        Vec2 u(rng.uniform(), rng.uniform());
-        if (strata) u = stratified(*strata, kDirectionDim, u);
-        if (mat.is_specular()) {
-            const SpecularScatter sc = scatter_specular(mat, p.ray.d, hit->p, hit->ng, u.x,
-                                                        Transport::Radiance, scene_.offset_floor);
-            p.beta *= sc.weight;
-            p.ray = sc.ray;
-            p.specular = true;
-        } else {
-            Lobe lobe{nullptr, n, mat.albedo};
-            Vec2 sky_u;
-            if (strata) {
-                sky_u = stratified(*strata, kSkyDim, Vec2(rng.uniform(), rng.uniform()));
-                lobe.sky_u = &sky_u;
-            }
-            L += p.beta * direct_light(hit->p, lobe, rng, ts);
-            const Vec3 wi = sample_cosine_hemisphere(n, u);
-            p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
-            p.env_pdf = p.prev_pdf;  // the environment's light sample: the same cosine
-            p.beta *= mat.albedo;    // f cos / pdf = albedo
-            p.specular = false;
-            ++p.gather_vertices;
-            p.ray = Ray{offset(hit->p, n), wi};
-        }
-        p.prev_p = hit->p;
-        if (!survive(p.depth, &p.beta, rng)) break;
+        if (hit->material < 0 || !bounce(p, *hit, &L, rng, ts)) break;
     }
     return L;
 }
 
+PathTracer::Segment PathTracer::media_segment(Path& p, float t_max, Color* L, Rng& rng,
+                                              ThreadState& ts) const {
+    if (has_point_lights_ && p.depth < max_depth_)
+        *L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
+    Color emitted(0.0f);
+    const TrackResult tr = delta_track(ts.media, p.ray, t_max, rng, &p.beta, Collision::Weighted,
+                                       emissive_ ? &emitted : nullptr);
+    *L += emitted;
+    if (tr.event == TrackEvent::Absorbed) return Segment::Ended;
+    if (tr.event != TrackEvent::Scattered) return Segment::Passed;
+    return scatter(p, p.ray.at(tr.t), L, rng, ts) ? Segment::Scattered : Segment::Ended;
+}
+
+void PathTracer::add_escaped(const Path& p, Color* L) const {
+    for (const Light& light : scene_.lights) {
+        if (!light.is_infinite()) continue;
+        const Color Le = escaped_radiance(light, p.ray.d);
+        if (max_component(Le) <= 0.0f) continue;
+        // The environment's light sample had the lobe's own pdf (direct_light).
+        const float light_p = light.type == LightType::Environment
+                                  ? p.env_pdf
+                                  : light_pdf(light, p.prev_p, p.ray.d, kInfinity);
+        const float w = p.specular ? 1.0f : power_heuristic(p.prev_pdf, light_p);
+        *L += p.beta * Le * w;
+    }
+}
+
+// Specular: the material's reflected or refracted ray; diffuse: direct light and a
+// cosine-sampled direction.
+bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, ThreadState& ts) const {
+    if (p.depth >= max_depth_) {
+        ++ts.capped;
+        return false;
+    }
+    const PixelSample* strata = p.depth == 0 ? p.strata : nullptr;
+    ++p.depth;
+    const Material& mat = scene_.materials[hit.material];
+    const Vec3 n = glm::dot(p.ray.d, hit.ng) < 0.0f ? hit.ng : -hit.ng;  // faces the ray
+    Vec2 u(rng.uniform(), rng.uniform());
+    if (strata) u = stratified(*strata, kDirectionDim, u);
+    if (mat.is_specular()) {
+        const SpecularScatter sc = scatter_specular(mat, p.ray.d, hit.p, hit.ng, u.x,
+                                                    Transport::Radiance, scene_.offset_floor);
+        p.beta *= sc.weight;
+        p.ray = sc.ray;
+        p.specular = true;
+    } else {
+        Lobe lobe{nullptr, n, mat.albedo};
+        Vec2 sky_u;
+        if (strata) {
+            sky_u = stratified(*strata, kSkyDim, Vec2(rng.uniform(), rng.uniform()));
+            lobe.sky_u = &sky_u;
+        }
+        *L += p.beta * direct_light(hit.p, lobe, rng, ts);
+        const Vec3 wi = sample_cosine_hemisphere(n, u);
+        p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
+        p.env_pdf = p.prev_pdf;  // the environment's light sample: the same cosine
+        p.beta *= mat.albedo;    // f cos / pdf = albedo
+        p.specular = false;
+        ++p.gather_vertices;
+        p.ray = Ray{offset(hit.p, n), wi};
+    }
+    p.prev_p = hit.p;
+    return survive(p.depth, &p.beta, rng);
+}
+
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide, const VolumeMapEnd* end, const SunShadows* sun,
-                 const AdjointSplit* adjoint, TileShare tiles) {
-    const PathTracer tracer(scene, settings.max_depth, guide, end, sun, adjoint);
+                 const PathPolicy& policy, TileShare tiles) {
+    const PathTracer tracer(scene, settings.max_depth, policy);
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, quiet, stats,
         [&] { return tracer.make_state(); },
@@ -425,10 +487,9 @@ Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,
                             const AdjointGrid& grid, RenderStats* stats, TileShare tiles) {
     RenderSettings pre = settings;
     pre.spp = kPixelEstimateSpp;
-    pre.seed = mix64(settings.seed ^ 0x61646a6f696e74ull);  // not the render's samples
-    const AdjointSplit ends{&grid, nullptr};
+    pre.seed = mix64(settings.seed ^ stream::kPixelEstimate);  // not the render's samples
     const Image film =
-        render_path(scene, pre, /*quiet=*/true, stats, nullptr, nullptr, nullptr, &ends, tiles)
+        render_path(scene, pre, /*quiet=*/true, stats, PathPolicy::pixel_estimate(grid), tiles)
             .beauty;
     // Within the pixel's tile: a rank rendering a share of the tiles gets the same Ĩ.
     Image out(film.width, film.height);

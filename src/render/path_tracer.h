@@ -10,17 +10,18 @@
 // the sub-pixel positions); Russian roulette once the throughput falls below 1;
 // max_depth caps the number of scattering/bounce vertices. Emissive media: every delta-tracking
 // segment adds β σ_a L_e / μ at each tentative collision (media/medium.h, delta_track).
-// With a VolumeMapEnd (the photon integrator's volume.gather_depth), paths end at their D-th medium
-// vertex in the volume map instead (render/volume_map_end.h), and the camera segment is not
-// delta-tracked: one ratio-tracking walk picks an in-scattering point ∝ T σ_s (media/medium.h,
-// ratio_track_pick) and the path continues from it with weight ≈ 1 − T *and* from the surface or
-// sky behind with the walk's transmittance. That removes the camera ray's scatter-or-pass-through
-// coin (docs/why.md); the plain path tracer keeps delta tracking, where the two branches cost
-// more time than they save. The photon integrator also passes its SunShadows: shadow rays to
-// a sun then take the media's transmittance from a grid of optical depth along it
-// (render/sun_shadows.h; surfaces still occlude), which the plain path tracer never does. The
-// guided integrator passes an AdjointSplit: paths split at medium vertices where the volume map
-// has more light to come than their pixel's share (below).
+// The medium-vertex behaviour is a PathPolicy (below). PathPolicy::end_in_map (the photon
+// integrator's volume.gather_depth): paths end at their D-th medium vertex in the volume map
+// (render/volume_map_end.h), and the camera segment is not delta-tracked: one ratio-tracking walk
+// picks an in-scattering point ∝ T σ_s (media/medium.h, ratio_track_pick) and the path continues
+// from it with weight ≈ 1 − T *and* from the surface or sky behind with the walk's
+// transmittance. That removes the camera ray's scatter-or-pass-through coin (docs/why.md); the
+// plain path tracer keeps delta tracking, where the two branches cost more time than they save.
+// The photon integrator's policy also carries its SunShadows: shadow rays to a sun then take
+// the media's transmittance from a grid of optical depth along it (render/sun_shadows.h;
+// surfaces still occlude), which the plain path tracer never does. PathPolicy::guided: paths
+// split at medium vertices where the volume map has more light to come than their pixel's share
+// (AdjointSplit, below).
 // Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s) whatever the thread.
 
 #include "core/rng.h"
@@ -52,26 +53,67 @@ inline constexpr int kStrataGroup = 4;
 /// most of a split's copies at the next vertex); below it the plain roulette, not Vorba's
 /// (survival β L̃ / Ĩ): L̃ is too rough a picture to end paths by (docs/why.md).
 /// Any such choice from the path so far is unbiased; this one spends samples where the light
-/// is. Without `pixels` the tracer makes Ĩ: paths end at their first medium vertex with its
-/// direct light plus β L̃ (render_pixel_estimate).
+/// is. Ĩ's own render (PathPolicy::pixel_estimate) ends paths at their first medium vertex with
+/// its direct light plus β L̃ (render_pixel_estimate).
 struct AdjointSplit {
     const AdjointGrid* grid = nullptr;  ///< L̃
-    const Image* pixels = nullptr;      ///< Ĩ (null: the estimate's own render)
+    const Image* pixels = nullptr;      ///< Ĩ (null in Ĩ's own render)
     static constexpr float kBelow = 1.0f / 3.0f, kAbove = 5.0f / 3.0f;
     static constexpr int kMaxSplit = 8;
     static constexpr int kSplitBudget = 32;
 };
 
+/// What a camera path does at a medium vertex (docs/design.md, The path tracer and Guided path
+/// tracing).
+enum class MediumVertex {
+    Continue,   ///< direct light, a phase-sampled direction, Russian roulette
+    Guided,     ///< as Continue, split by AdjointSplit, directions guided by a VolumeGuide if any
+    EndInGrid,  ///< direct light plus L̃ from an AdjointGrid, then the path ends (Ĩ's render)
+    EndInMap,   ///< ends in the volume map where VolumeMapEnd::ends_at; camera segments by
+                ///< ratio_track_pick (see the top of this file)
+};
+
+/// A PathTracer's integrator: a MediumVertex kind and the collaborators that kind reads, made
+/// only by the named factories. Non-owning: the collaborators must outlive every tracer using
+/// it. Accessors of a collaborator are valid only for the kinds named on them.
+class PathPolicy {
+public:
+    /// The plain path tracer; `sun` (may be null): shadow rays to the suns it covers read its
+    /// grids.
+    static PathPolicy plain(const SunShadows* sun = nullptr);
+    /// The guided tracer: paths split by `split` (grid and pixels both set); `guide` (may be
+    /// null: the phase alone) samples directions at path depths up to guide->settings().vertices.
+    static PathPolicy guided(const VolumeGuide* guide, const AdjointSplit& split);
+    /// render_pixel_estimate's paths: they end at their first medium vertex with L̃ from `grid`.
+    static PathPolicy pixel_estimate(const AdjointGrid& grid);
+    /// The photon integrator's camera paths: they end in `end`'s volume map; `sun` as in plain.
+    static PathPolicy end_in_map(const VolumeMapEnd& end, const SunShadows* sun);
+
+    MediumVertex kind() const { return kind_; }
+    /// Guided, with a guide whose vertices reach path depth `depth` (this vertex included).
+    bool guides(int depth) const {
+        return kind_ == MediumVertex::Guided && guide_ && depth <= guide_->settings().vertices;
+    }
+    const VolumeGuide& guide() const { return *guide_; }  ///< when guides(some depth)
+    const AdjointSplit& split() const { return split_; }  ///< Guided; EndInGrid (grid only)
+    const VolumeMapEnd& end() const { return *end_; }     ///< EndInMap
+    /// Shadow rays to light `li` take the media's transmittance from the SunShadows grid.
+    bool sun_covers(size_t li) const { return sun_ && sun_->covers(li); }
+    const SunShadows& sun() const { return *sun_; }  ///< when sun_covers(some light)
+
+private:
+    explicit PathPolicy(MediumVertex kind) : kind_(kind) {}
+    MediumVertex kind_;
+    const VolumeGuide* guide_ = nullptr;
+    AdjointSplit split_;
+    const VolumeMapEnd* end_ = nullptr;
+    const SunShadows* sun_ = nullptr;
+};
+
 class PathTracer {
 public:
-    /// `guide` (may be null): scattering directions in media guided by the volume photon map;
-    /// `end` (may be null): paths end in the volume map at a medium vertex that is their
-    /// end->depth()-th vertex in media and on diffuse surfaces; `sun` (may be null): shadow rays
-    /// to the suns it covers read its grids.
-    /// `adjoint` (may be null): splitting at medium vertices by AdjointSplit.
-    PathTracer(const Scene& scene, int max_depth, const VolumeGuide* guide = nullptr,
-               const VolumeMapEnd* end = nullptr, const SunShadows* sun = nullptr,
-               const AdjointSplit* adjoint = nullptr);
+    /// `policy`: what paths do at medium vertices (PathPolicy's factories).
+    PathTracer(const Scene& scene, int max_depth, const PathPolicy& policy = PathPolicy::plain());
 
     /// Per-thread mutable state: medium samplers and counters. One per task.
     struct ThreadState {
@@ -112,9 +154,19 @@ private:
     /// The path's next segment by ratio_track_pick: both the picked medium vertex and what lies
     /// behind (the point lights' segment estimate and the media's emission included).
     Color pick_segment(Path p, Rng& rng, ThreadState& ts) const;
-    /// A medium vertex at x: direct light, then the map (the path ends: false) or a new
-    /// direction for p (false when Russian roulette ends it).
+    /// A medium vertex at x: direct light, then the end (false) or a new direction for p
+    /// (false when Russian roulette ends it); a split's other copies traced into *L.
     bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
+    /// True: the policy ends p at its medium vertex x (EndInMap: counts it as a gather vertex).
+    bool ends_here(Path& p, const Vec3& x) const;
+    /// Into *L, the light of a path ending at medium vertex x: its direct light and the map's
+    /// (EndInMap) or L̃ (EndInGrid).
+    void end_path(const Path& p, const Vec3& x, const PhaseMix& phase, Color* L, Rng& rng,
+                  ThreadState& ts) const;
+    /// q's direction out of medium vertex x: guide and phase by one-sample MIS (guided), else
+    /// the phase, stratified when `strata` (may be null) is given.
+    void next_direction(Path& q, const Vec3& x, const PhaseMix& phase, bool guided,
+                        const PixelSample* strata, Rng& rng, ThreadState& ts) const;
     /// AdjointSplit at a medium vertex x with direct light `direct`: how many paths go on from p
     /// (0: the roulette ended it), p.beta reweighted.
     int split(Path& p, const Vec3& x, const PhaseMix& phase, const Color& direct, Rng& rng,
@@ -123,27 +175,36 @@ private:
     /// by pick_segment.
     Color trace(Path p, Rng& rng, ThreadState& ts,
                 const std::optional<SurfaceHit>* first_hit = nullptr) const;
+    /// How a path's segment through the media ended.
+    enum class Segment { Passed, Scattered, Ended };
+    /// Delta tracking of p's segment up to t_max (with the point lights' segment estimate and
+    /// the media's emission, into *L): Passed through, Scattered (p goes on from a medium
+    /// vertex) or Ended.
+    Segment media_segment(Path& p, float t_max, Color* L, Rng& rng, ThreadState& ts) const;
+    /// Into *L, the infinite lights seen by p, which has left the scene.
+    void add_escaped(const Path& p, Color* L) const;
+    /// A surface vertex `hit` with a material: direct light and a new direction for p. False:
+    /// max_depth or Russian roulette ended the path.
+    bool bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, ThreadState& ts) const;
     Color direct_light(const Vec3& x, const Lobe& lobe, Rng& rng, ThreadState& ts) const;
+    /// Transmittance of the shadow ray from `origin` to sample s of light li.
+    Color shadow(size_t li, const Vec3& origin, const LightSample& s, Rng& rng,
+                 ThreadState& ts) const;
     Color point_lights_in_segment(const Ray& ray, float t_max, Rng& rng, ThreadState& ts) const;
     Vec3 offset(const Vec3& p, const Vec3& n) const;
 
     const Scene& scene_;
     int max_depth_;
-    const VolumeGuide* guide_;
-    const VolumeMapEnd* end_;
-    const SunShadows* sun_;
-    const AdjointSplit* adjoint_;
+    PathPolicy policy_;
     bool has_point_lights_ = false;
     bool emissive_ = false;
 };
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
-/// settings.max_depth (the worker count is the caller's ThreadLimit), guided by `guide` and paths
-/// ended by `end` when given. An unlayered film. Progress on stderr unless quiet.
+/// settings.max_depth (the worker count is the caller's ThreadLimit), medium vertices as
+/// `policy` says. An unlayered film. Progress on stderr unless quiet.
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const VolumeGuide* guide = nullptr, const VolumeMapEnd* end = nullptr,
-                 const SunShadows* sun = nullptr, const AdjointSplit* adjoint = nullptr,
-                 TileShare tiles = {});
+                 const PathPolicy& policy = PathPolicy::plain(), TileShare tiles = {});
 
 /// AdjointSplit's Ĩ: a render of kPixelEstimateSpp samples a pixel whose paths end at their first
 /// medium vertex with L̃ from `grid`, its average over each pixel's 3 × 3 neighbourhood within its

@@ -1,5 +1,6 @@
 #include "render/photon_integrator.h"
 
+#include "core/rng.h"
 #include "core/sampling.h"
 #include "core/timer.h"
 #include "photon/estimators.h"
@@ -207,7 +208,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
 float map_weight(const PixelSample& ps, int map_spp) {
     const int step = map_spp > 0 ? std::max(1, ps.spp / map_spp) : 1;
     if (step == 1) return 1.0f;
-    const int offset = static_cast<int>(mix64(ps.key ^ 0x6d61705f73707000ull) % uint64_t(step));
+    const int offset = static_cast<int>(mix64(ps.key ^ stream::kMapSamples) % uint64_t(step));
     return (ps.s + offset) % step == 0 ? static_cast<float>(step) : 0.0f;
 }
 

@@ -2,6 +2,7 @@
 
 #include "core/image.h"
 #include "core/rng.h"
+#include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/pipeline.h"
 #include "render/tiles.h"
@@ -110,66 +111,76 @@ Pilot pilot_share(const SceneDesc& desc) {
     return pilot;
 }
 
-Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
-    const int width = desc.camera.width, height = desc.camera.height;
-    Pilot pilot = pilot_share(desc);
-    const double f = double(pilot.spp) / desc.render.spp;  // the pilot's share of the samples
-    // Photon budgets and attempts scale with the samples, so that the map's variance stands to
-    // the camera paths' as in the render, but not below 1/16 (pilot.h).
-    const double f_photons = std::max(f, kPilotMinPhotons);
-    const auto scaled = [f_photons](uint64_t n) {
+namespace {
+
+// What a pilot run scales by: f, the pilot's share of the render's samples, and f_photons, its
+// share of the photons. Photon budgets and attempts scale with the samples, so that the map's
+// variance stands to the camera paths' as in the render, but not below 1/16 (pilot.h).
+struct PilotScale {
+    explicit PilotScale(double share) : f(share), f_photons(std::max(f, kPilotMinPhotons)) {}
+    /// A budget of n scaled, at least 1 unless n is 0.
+    uint64_t scaled(uint64_t n) const {
         return n == 0 ? 0
                       : std::max<uint64_t>(1, static_cast<uint64_t>(std::llround(n * f_photons)));
-    };
-
-    const Integrator kinds[] = {Integrator::Photon, Integrator::Path, Integrator::Guided};
-    const uint64_t volume_photons = volume_budget(desc), attempts = volume_attempts(desc);
-    const ShareLayout share(width, height, pilot.tile_count);
-    std::vector<std::vector<Color>> images;  // candidate c, seed k at 2c + k: the share's pixels
-    for (const Integrator kind : kinds) {
-        PilotCandidate c;
-        c.integrator = kind;
-        Work work;
-        double pixels = 0.0;
-        for (uint64_t k = 0; k < 2; ++k) {
-            SceneDesc d = desc;
-            d.render.integrator = kind;
-            d.render.spp = pilot.spp;
-            d.render.seed = mix64(desc.render.seed ^ (0x70696c6f74000000ull + k));
-            d.progressive.spp = pilot.spp;  // one iteration (iteration_size): the share's samples
-            RunSetup run_setup = resolve_run(d);
-            run_setup.tiles = TileShare{0, pilot.tile_count};
-            PhotonSettings& p = run_setup.photons;
-            p.global = scaled(desc.photons.global);
-            p.caustic = scaled(desc.photons.caustic);
-            p.volume = scaled(kind == Integrator::Photon ? volume_photons
-                                                         : desc.photons.volume_or_default());
-            p.max_emitted = scaled(desc.photons.max_emitted);
-            // The photon integrator's attempts rule, scaled; the guided tracer's volume map
-            // closes by it too (else it would fill, in thin media after many times the work).
-            p.volume_attempts = kind != Integrator::Path ? scaled(attempts) : 0;
-            PipelineResult run = run_on_scene(run_setup, scene, shared);
-            const Work w = work_units(run.report);
-            work.render += 0.5 * w.render;
-            work.photons += 0.5 * w.photons;
-            work.per_pixel += 0.5 * w.per_pixel;
-            work.fixed = std::max(work.fixed, w.fixed);  // shared tables: built once
-            pixels = double(run.report.samples) / pilot.spp;
-            images.push_back(share.gather(run.film.beauty));
-        }
-        // The full render: every pixel (the pilot has `pixels`) at 1/f the samples, 1/f_photons
-        // the photons, and the tables once.
-        const double all_pixels = double(width) * height / std::max(pixels, 1.0);
-        c.work = work.fixed + work.photons / f_photons + work.render * all_pixels / f +
-                 work.per_pixel * all_pixels;
-        pilot.candidates.push_back(c);
     }
-    // relMSE as bench measures it, Σ d² / (y² + 0.01) over pixels and channels; d² estimated
-    // from two independent images a, b as (a − b)² / 2, y by the median of the pilot's images
-    // averaged over the pixel's 5 × 5 neighbourhood in the share. (Their mean at the pixel alone
-    // is so noisy, a firefly weighing its own pixel down, that the noisiest candidate's error
-    // came out 3x low at 1 spp on the Disney cloud.)
-    std::vector<Color> median(share.size());
+    double f, f_photons;
+};
+
+// The run of candidate `kind` with seed k: the share's tiles at the pilot's samples, photons
+// scaled.
+RunSetup candidate_run(const SceneDesc& desc, const Pilot& pilot, const PilotScale& scale,
+                       Integrator kind, int k) {
+    SceneDesc d = desc;
+    d.render.integrator = kind;
+    d.render.spp = pilot.spp;
+    d.render.seed = pilot_seed(desc.render.seed, k);
+    d.progressive.spp = pilot.spp;  // one iteration (iteration_size): the share's samples
+    RunSetup run_setup = resolve_run(d);
+    run_setup.tiles = TileShare{0, pilot.tile_count};
+    PhotonSettings& p = run_setup.photons;
+    p.global = scale.scaled(desc.photons.global);
+    p.caustic = scale.scaled(desc.photons.caustic);
+    p.volume = scale.scaled(kind == Integrator::Photon ? volume_budget(desc)
+                                                       : desc.photons.volume_or_default());
+    p.max_emitted = scale.scaled(desc.photons.max_emitted);
+    // The photon integrator's attempts rule, scaled; the guided tracer's volume map closes by it
+    // too (else it would fill, in thin media after many times the work).
+    p.volume_attempts = kind != Integrator::Path ? scale.scaled(volume_attempts(desc)) : 0;
+    return run_setup;
+}
+
+// Candidate `kind`'s two runs: their share's pixels appended to *images, and the work they
+// predict for the full render.
+PilotCandidate run_candidate(const SceneDesc& desc, const Scene& scene, SharedTables* shared,
+                             const Pilot& pilot, const PilotScale& scale, const ShareLayout& share,
+                             Integrator kind, std::vector<std::vector<Color>>* images) {
+    PilotCandidate c;
+    c.integrator = kind;
+    Work work;
+    double pixels = 0.0;
+    for (int k = 0; k < 2; ++k) {
+        PipelineResult run =
+            run_on_scene(candidate_run(desc, pilot, scale, kind, k), scene, shared);
+        const Work w = work_units(run.report);
+        work.render += 0.5 * w.render;
+        work.photons += 0.5 * w.photons;
+        work.per_pixel += 0.5 * w.per_pixel;
+        work.fixed = std::max(work.fixed, w.fixed);  // shared tables: built once
+        pixels = double(run.report.samples) / pilot.spp;
+        images->push_back(share.gather(run.film.beauty));
+    }
+    // The full render: every pixel (the pilot has `pixels`) at 1/f the samples, 1/f_photons the
+    // photons, and the tables once.
+    const double all_pixels =
+        double(desc.camera.width) * desc.camera.height / std::max(pixels, 1.0);
+    c.work = work.fixed + work.photons / scale.f_photons + work.render * all_pixels / scale.f +
+             work.per_pixel * all_pixels;
+    return c;
+}
+
+// Per pixel of the share and channel, the median of the pilot's images.
+std::vector<Color> share_median(const std::vector<std::vector<Color>>& images, size_t size) {
+    std::vector<Color> median(size);
     std::vector<float> values(images.size());
     for (size_t i = 0; i < median.size(); ++i)
         for (int ch = 0; ch < 3; ++ch) {
@@ -178,8 +189,19 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             const size_t h = values.size() / 2;
             median[i][ch] = 0.5f * (values[h - 1] + values[h]);
         }
-    std::vector<double> sums(pilot.candidates.size(), 0.0);
-    double count = 0.0;
+    return median;
+}
+
+// relMSE as bench measures it, Σ d² / (y² + kRelMseFloor) over pixels and channels, per candidate
+// (*count: the values summed); d² estimated from two independent images a, b as (a − b)² / 2, y
+// by the median of the pilot's images averaged over the pixel's 5 × 5 neighbourhood in the share.
+// (Their mean at the pixel alone is so noisy, a firefly weighing its own pixel down, that the
+// noisiest candidate's error came out 3x low at 1 spp on the Disney cloud.)
+std::vector<double> rel_mse_sums(const SceneDesc& desc, const ShareLayout& share,
+                                 const std::vector<std::vector<Color>>& images, double* count) {
+    const int width = desc.camera.width, height = desc.camera.height;
+    const std::vector<Color> median = share_median(images, share.size());
+    std::vector<double> sums(images.size() / 2, 0.0);
     for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
             if (!share.contains(x, y)) continue;
@@ -196,13 +218,32 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
             for (int ch = 0; ch < 3; ++ch) {
                 for (size_t c = 0; c < sums.size(); ++c) {
                     const double d = double(images[2 * c][i][ch]) - images[2 * c + 1][i][ch];
-                    sums[c] += 0.5 * d * d / (value[ch] * value[ch] + 0.01);
+                    sums[c] += relative_squared_error(0.5 * d * d, value[ch]);
                 }
-                count += 1.0;
+                *count += 1.0;
             }
         }
+    return sums;
+}
+
+}  // namespace
+
+uint64_t pilot_seed(uint64_t seed, int k) {
+    return derive_seed(seed, stream::kPilot, static_cast<uint64_t>(k));
+}
+
+Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared) {
+    Pilot pilot = pilot_share(desc);
+    const PilotScale scale(double(pilot.spp) / desc.render.spp);
+    const ShareLayout share(desc.camera.width, desc.camera.height, pilot.tile_count);
+    std::vector<std::vector<Color>> images;  // candidate c, seed k at 2c + k: the share's pixels
+    for (const Integrator kind : {Integrator::Photon, Integrator::Path, Integrator::Guided})
+        pilot.candidates.push_back(
+            run_candidate(desc, scene, shared, pilot, scale, share, kind, &images));
+    double count = 0.0;
+    const std::vector<double> sums = rel_mse_sums(desc, share, images, &count);
     for (size_t c = 0; c < sums.size(); ++c) {
-        pilot.candidates[c].rel_mse = count > 0.0 ? f * sums[c] / count : 0.0;
+        pilot.candidates[c].rel_mse = count > 0.0 ? scale.f * sums[c] / count : 0.0;
         if (pilot.candidates[c].score() < pilot.candidates[pilot.best].score()) pilot.best = c;
     }
     return pilot;

@@ -16,6 +16,7 @@
 #include "render/run_setup.h"
 #include "scene/scene_desc.h"
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,11 @@ Pilot pilot_share(const SceneDesc& desc);
 /// render's time at 4 spp, 1.1 / 1.1x at 8, 0.63 / 0.66x at 16, 0.31 / 0.36x at 32. Below
 /// it, pilot_auto picks the photon integrator without a pilot.
 inline constexpr double kPilotMaxShare = 0.25;
+
+/// The seed of the pilot's run k (0 or 1) of each candidate for the render seed `seed`:
+/// derive_seed(seed, stream::kPilot, k) (core/rng.h), so that the pairs of any two render seeds
+/// share no seed and their picks are independent.
+uint64_t pilot_seed(uint64_t seed, int k);
 
 /// Runs the pilot of `desc` (render.integrator photon as auto resolved it for media under sun,
 /// sky or area lights) on `scene`, loaded from it. Deterministic for a given description.

@@ -140,7 +140,7 @@ private:
     Film render_guided(const PhotonMaps& maps, const GatherParams& gather,
                        const RenderSettings& settings, RenderStats* stats);
     Film render_map_end(const PhotonMaps& maps, const GatherParams& gather,
-                        const RenderSettings& settings, RenderStats* stats);
+                        const RenderSettings& settings, RenderStats* stats, IterationReport* it);
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
     bool last_round(int round, double loop_start_s);
     void gather_to_root();
@@ -286,13 +286,16 @@ Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
         split = AdjointSplit{&*grid, &pixels};
         add_phase(&report_, "precompute", precompute.seconds());
     }
-    return render_path(scene_, settings, quiet_pass_, stats, guide ? &*guide : nullptr, nullptr,
-                       nullptr, grid ? &split : nullptr, setup_.tiles);
+    return render_path(
+        scene_, settings, quiet_pass_, stats,
+        grid ? PathPolicy::guided(guide ? &*guide : nullptr, split) : PathPolicy::plain(),
+        setup_.tiles);
 }
 
 /// Camera paths traced as the path tracer does, ended in the volume map.
 Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
-                             const RenderSettings& settings, RenderStats* stats) {
+                             const RenderSettings& settings, RenderStats* stats,
+                             IterationReport* it) {
     const Timer precompute;
     std::optional<VolumeMapEnd> end;
     if (maps.volume) {
@@ -302,6 +305,7 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
         const float k = desc_.volume.radius > 0.0f ? 0.0f
                                                    : float(first_gather_->volume.k) *
                                                          std::pow(gather.volume.radius / r1, 3.0f);
+        it->volume_k = k;
         end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
                     desc_.volume.gather_tau, &end_buffers_);
         report_.precompute_nodes += end->nodes();
@@ -318,16 +322,17 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
         report_.precompute_nodes += sun_shadows_->nodes();
     }
     add_phase(&report_, "precompute", precompute.seconds());
-    return render_path(scene_, settings, quiet_pass_, stats, nullptr, end ? &*end : nullptr,
-                       &*sun_shadows_, nullptr, setup_.tiles);
+    return render_path(
+        scene_, settings, quiet_pass_, stats,
+        end ? PathPolicy::end_in_map(*end, &*sun_shadows_) : PathPolicy::plain(&*sun_shadows_),
+        setup_.tiles);
 }
 
 /// Iteration i: the photon pass where the method has maps, then the method's render.
 Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
     const RenderSettings settings = iteration_settings(i);
     if (setup_.method == Method::Path)
-        return render_path(scene_, settings, quiet_pass_, stats, nullptr, nullptr, nullptr, nullptr,
-                           setup_.tiles);
+        return render_path(scene_, settings, quiet_pass_, stats, PathPolicy::plain(), setup_.tiles);
     const PhotonMaps maps = trace_maps(settings.seed, i, it);
     if (i == 1) first_gather_ = gather_params(desc_, scene_, maps, progressive_);
     const GatherParams gather = gather_at_iteration(*first_gather_, i, desc_.progressive.alpha);
@@ -336,7 +341,7 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
         case Method::Guided:
             return render_guided(maps, gather, settings, stats);
         case Method::MapEnd:
-            return render_map_end(maps, gather, settings, stats);
+            return render_map_end(maps, gather, settings, stats, it);
         default: {
             double precompute_s = 0.0;
             Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
@@ -465,7 +470,7 @@ void RunLoop::finish_report() {
     r.steps = uint64_t(counts_.steps);
     r.lookups = uint64_t(counts_.lookups);
     r.gathered = uint64_t(counts_.gathered);
-    if (r.samples > 0 && r.depth_capped > r.samples / 1000) {
+    if (r.samples > 0 && double(r.depth_capped) > kCapWarnShare * double(r.samples)) {
         char text[200];
         std::snprintf(text, sizeof text,
                       "render.max_depth = %d cut %.2g%% of the camera samples while they still "

@@ -93,6 +93,7 @@ nlohmann::json report_json(const Report& r) {
         iterations.push_back({{"index", it.index},
                               {"elapsed_s", it.elapsed_s},
                               {"radii", radii_json(it.radii)},
+                              {"volume_k", it.volume_k},
                               {"rel_mse", it.rel_mse},
                               {"photon_bytes", it.photon_bytes}});
     nlohmann::json maps = nlohmann::json::object();

@@ -29,6 +29,9 @@ struct IterationReport {
     struct Radii {
         float global = 0.0f, caustic = 0.0f, volume = 0.0f;
     } radii;                  ///< the gather radii of this iteration (0: map not built)
+    /// Camera paths ending in the volume map with an adaptive radius: the photons gathered where
+    /// the ball holds many, k_1 (r_i / r_1)^3 (render/volume_map_end.h); 0 otherwise.
+    float volume_k = 0.0f;
     double rel_mse = -1.0;    ///< of the running mean against the reference (-1: none)
     size_t photon_bytes = 0;  ///< memory of this iteration's maps
 };

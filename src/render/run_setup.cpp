@@ -444,10 +444,11 @@ std::vector<std::string> ignored_keys(const SceneDesc& desc, Method method) {
 
 /// The rest of resolve_run once the integrator is named: the schedule (a photon render's
 /// iterations), then the budgets and the keys set by rule, which follow an iteration's samples.
-RunSetup resolve_named(RunSetup s) {
+/// `file`: the scene's own keys, of which those the method ignores are named.
+RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
     SceneDesc& d = s.run;
     s.method = method_of(d);
-    s.ignored = ignored_keys(d, s.method);
+    s.ignored = ignored_keys(file, s.method);
     if (s.photon()) {
         const IterationSize size = iteration_size(d);
         if (d.progressive.enabled() || size.iterations > 1) {
@@ -474,7 +475,7 @@ RunSetup resolve_run(const SceneDesc& desc) {
     RunSetup s;
     s.run = desc;
     choose_integrator(&s);
-    return resolve_named(std::move(s));
+    return resolve_named(std::move(s), desc);
 }
 
 RunSetup resolve_picked(const SceneDesc& file, const RunSetup& chosen, Integrator integrator,
@@ -484,7 +485,7 @@ RunSetup resolve_picked(const SceneDesc& file, const RunSetup& chosen, Integrato
     s.run.render.integrator = integrator;
     s.run.volume.gather_depth = chosen.run.volume.gather_depth;
     s.reason = std::move(reason);
-    return resolve_named(std::move(s));
+    return resolve_named(std::move(s), file);
 }
 
 Plan make_plan(const SceneDesc& desc) { return resolve_run(desc).plan; }

@@ -35,7 +35,7 @@ inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
 
 /// The key of a pixel's row shuffle: its own stream, apart from the pixel's sample streams.
 inline uint64_t pixel_key(uint64_t seed, uint64_t pixel) {
-    return mix64(mix64(seed + 0x9E3779B97F4A7C15ull) ^ ~pixel);
+    return mix64(mix64(seed + stream::kPixelRows) ^ ~pixel);
 }
 
 /// Sub-pixel position of sample s of spp in a pixel, from two uniforms u: N-rooks (Latin

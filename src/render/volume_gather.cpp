@@ -61,8 +61,8 @@ Color VolumeGather::scatter_light(const Light& light, const Vec3& x, const Vec3&
                                   State& st) const {
     const LightSample s = sample_light(light, x, Vec2(rng.uniform(), rng.uniform()));
     if (s.pdf <= 0.0f || max_component(s.Li) <= 0.0f) return Color(0.0f);
-    const Color T = shadow_transmittance(scene_, st.media, Ray{x, s.wi}, s.dist * (1.0f - 1e-4f),
-                                         rng, &st.rays);
+    const Color T = shadow_transmittance(scene_, st.media, Ray{x, s.wi},
+                                         s.dist * (1.0f - kShadowRayEpsilon), rng, &st.rays);
     return PhaseMix(st.media, x).eval(glm::dot(dir, s.wi)) * s.Li * T / s.pdf;
 }
 

@@ -215,64 +215,8 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
     // Without moments the grid is for AdaptiveRadius's counts alone.
     if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
         return;
-    std::vector<size_t> scratch;
-    std::vector<size_t>& nodes = recycle ? recycle->nodes : scratch;
-    nodes.clear();
-    for (size_t n = 0; n < density_.nodes(); ++n)
-        if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
-    if (nodes.size() > kMaxMomentNodes) return;
-    if (recycle) {
-        reserve_recycled(&slot_, density_.nodes());
-        reserve_recycled(&moments_, nodes.size());
-    }
-    slot_.assign(density_.nodes(), -1);
-    for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
-    moments_.assign(nodes.size(), Moments{});
-    // Each photon adds to the grid points within r of it. Per layer of grid points (z), its
-    // photons in the map's order: each point's sums are the same whatever the thread count.
-    const std::array<int, 3> dims = density_.dims();
-    const Vec3 origin = density_.node_position(0);
-    const float cell = density_.cell(), r2 = radius * radius;
-    const std::vector<Photon>& photons = map.tree.records();
-    const auto range = [&](float v, int a, int* lo, int* hi) {  // grid points within r of v
-        const float top = float(dims[a] - 1);
-        *lo = static_cast<int>(std::clamp(std::ceil((v - radius - origin[a]) / cell), 0.0f, top));
-        *hi = static_cast<int>(std::clamp(std::floor((v + radius - origin[a]) / cell), -1.0f, top));
-        return *lo <= *hi;
-    };
-    std::vector<std::vector<uint32_t>> layers(dims[2]);
-    for (uint32_t n = 0; n < photons.size(); ++n) {
-        int lo, hi;
-        if (range(photons[n].position().z, 2, &lo, &hi))
-            for (int k = lo; k <= hi; ++k) layers[k].push_back(n);
-    }
-    tbb::parallel_for(0, dims[2], [&](int k) {
-        for (const uint32_t n : layers[k]) {
-            const Photon& p = photons[n];
-            int i0, i1, j0, j1;
-            if (!range(p.position().x, 0, &i0, &i1) || !range(p.position().y, 1, &j0, &j1))
-                continue;
-            const Color c = p.power();
-            const Vec3 w = p.direction();
-            const std::array<Color, 3> m1{w.x * c, w.y * c, w.z * c};
-            const std::array<Color, 6> m2{w.x * m1[0], w.y * m1[1], w.z * m1[2],
-                                          w.y * m1[0], w.z * m1[0], w.z * m1[1]};
-            const Vec3 q = p.position() - origin;
-            for (int j = j0; j <= j1; ++j)
-                for (int i = i0; i <= i1; ++i) {
-                    const int32_t s = slot_[(size_t(k) * dims[1] + j) * dims[0] + i];
-                    if (s < 0) continue;
-                    const Vec3 d = cell * Vec3(float(i), float(j), float(k)) - q;
-                    if (glm::dot(d, d) > r2) continue;
-                    Moments& m = moments_[s];
-                    m.count += 1.0f;
-                    if (!phase_fits_) continue;  // the kd-tree's lookups want only counts
-                    m.m0 += c;
-                    for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
-                    for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
-                }
-        }
-    });
+    if (!assign_slots()) return;
+    add_photons();
     crowded_anywhere_ =
         k_ > 0.0f && std::any_of(moments_.begin(), moments_.end(),
                                  [&](const Moments& m) { return m.count > 2.0f * k_; });
@@ -280,6 +224,78 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
         counts_.resize(moments_.size());
         for (size_t i = 0; i < moments_.size(); ++i) counts_[i] = moments_[i].count;
     }
+}
+
+bool VolumeMapEnd::assign_slots() {
+    std::vector<size_t> scratch;
+    std::vector<size_t>& nodes = recycle_ ? recycle_->nodes : scratch;
+    nodes.clear();
+    for (size_t n = 0; n < density_.nodes(); ++n)
+        if (max_component(density_.node_value(n)) > 0.0f) nodes.push_back(n);
+    if (nodes.size() > kMaxMomentNodes) return false;
+    if (recycle_) {
+        reserve_recycled(&slot_, density_.nodes());
+        reserve_recycled(&moments_, nodes.size());
+    }
+    slot_.assign(density_.nodes(), -1);
+    for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
+    moments_.assign(nodes.size(), Moments{});
+    return true;
+}
+
+// The density grid's points and the radius photons reach.
+struct VolumeMapEnd::Lattice {
+    std::array<int, 3> dims;
+    Vec3 origin;
+    float cell, radius;
+    // Grid points [*lo, *hi] along axis a within the radius of coordinate v; false: none.
+    bool range(float v, int a, int* lo, int* hi) const {
+        const float top = float(dims[a] - 1);
+        *lo = static_cast<int>(std::clamp(std::ceil((v - radius - origin[a]) / cell), 0.0f, top));
+        *hi = static_cast<int>(std::clamp(std::floor((v + radius - origin[a]) / cell), -1.0f, top));
+        return *lo <= *hi;
+    }
+};
+
+// Each photon adds to the grid points within r of it. Per layer of grid points (z), its photons
+// in the map's order: each point's sums are the same whatever the thread count.
+void VolumeMapEnd::add_photons() {
+    const Lattice g{density_.dims(), density_.node_position(0), density_.cell(), radius_};
+    const std::vector<Photon>& photons = map_.tree.records();
+    std::vector<std::vector<uint32_t>> layers(g.dims[2]);
+    for (uint32_t n = 0; n < photons.size(); ++n) {
+        int lo, hi;
+        if (g.range(photons[n].position().z, 2, &lo, &hi))
+            for (int k = lo; k <= hi; ++k) layers[k].push_back(n);
+    }
+    tbb::parallel_for(0, g.dims[2], [&](int k) {
+        for (const uint32_t n : layers[k]) add_photon(photons[n], g, k);
+    });
+}
+
+void VolumeMapEnd::add_photon(const Photon& p, const Lattice& g, int k) {
+    int i0, i1, j0, j1;
+    if (!g.range(p.position().x, 0, &i0, &i1) || !g.range(p.position().y, 1, &j0, &j1)) return;
+    const Color c = p.power();
+    const Vec3 w = p.direction();
+    const std::array<Color, 3> m1{w.x * c, w.y * c, w.z * c};
+    const std::array<Color, 6> m2{w.x * m1[0], w.y * m1[1], w.z * m1[2],
+                                  w.y * m1[0], w.z * m1[0], w.z * m1[1]};
+    const Vec3 q = p.position() - g.origin;
+    const float r2 = g.radius * g.radius;
+    for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+            const int32_t s = slot_[(size_t(k) * g.dims[1] + j) * g.dims[0] + i];
+            if (s < 0) continue;
+            const Vec3 d = g.cell * Vec3(float(i), float(j), float(k)) - q;
+            if (glm::dot(d, d) > r2) continue;
+            Moments& m = moments_[s];
+            m.count += 1.0f;
+            if (!phase_fits_) continue;  // the kd-tree's lookups want only counts
+            m.m0 += c;
+            for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
+            for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
+        }
 }
 
 VolumeMapEnd::~VolumeMapEnd() {

@@ -201,6 +201,14 @@ public:
     };
 
 private:
+    struct Lattice;
+    /// Moments for the grid points with medium about them (slot_, moments_); false, and none,
+    /// above kMaxMomentNodes.
+    bool assign_slots();
+    /// Every photon's moments into the grid points within the radius of it.
+    void add_photons();
+    /// Photon p's into those of layer k (z) of lattice g.
+    void add_photon(const Photon& p, const Lattice& g, int k);
     /// σ̄_s at x and, where the grid holds moments, the interpolated moments (else m stays 0);
     /// the corners used. False beyond the grid.
     bool interpolate(const Vec3& x, Color* density, Moments* m,

@@ -19,7 +19,7 @@ float sun_cone_pdf(const Light& l) { return 1.0f / (kTwoPi * l.sun_one_minus_cos
 }  // namespace
 
 float sun_one_minus_cos(float angular_radius_deg) {
-    const double theta = angular_radius_deg * (3.14159265358979323846 / 180.0);
+    const double theta = angular_radius_deg * (kPiDouble / 180.0);
     const double s = std::sin(0.5 * theta);
     return static_cast<float>(2.0 * s * s);
 }
@@ -33,15 +33,14 @@ Light make_light(const LightDesc& d) {
     l.position = d.position;
     const float len = glm::length(d.direction);
     l.direction = len > 0.0f ? d.direction / len : Vec3(0.0f, -1.0f, 0.0f);
-    const double deg = 3.14159265358979323846 / 180.0;
+    const double deg = kPiDouble / 180.0;
     l.cos_outer = static_cast<float>(std::cos(d.cone_angle_deg * deg));
     l.cos_inner = static_cast<float>(std::cos((d.cone_angle_deg - d.cone_delta_deg) * deg));
     if (d.type == LightType::Sun && d.angular_radius_deg > 0.0f) {
         const double theta = d.angular_radius_deg * deg;
         l.sun_one_minus_cos = sun_one_minus_cos(d.angular_radius_deg);
         const double sin_theta = std::sin(theta);
-        l.radiance =
-            d.irradiance / static_cast<float>(3.14159265358979323846 * sin_theta * sin_theta);
+        l.radiance = d.irradiance / static_cast<float>(kPiDouble * sin_theta * sin_theta);
     }
     l.corner = d.corner;
     l.edge_u = d.edge_u;
@@ -150,7 +149,7 @@ float spot_solid_angle(const Light& l) {
     double sum = 0.0;
     for (int i = 0; i < n; ++i)
         sum += smoothstep(l.cos_outer, l.cos_inner, static_cast<float>(a + (i + 0.5) * h));
-    return static_cast<float>(2.0 * 3.14159265358979323846 * sum * h);
+    return static_cast<float>(2.0 * kPiDouble * sum * h);
 }
 
 float bounding_radius(const Box3& b) { return 0.5f * glm::length(b.extent()); }

@@ -105,6 +105,11 @@ struct MediumDesc {
 /// (render/run_setup.h, choose_integrator).
 enum class Integrator { Path, Photon, Guided, Auto };
 
+/// The share of what a safety limit may cut before it is a warning: render.max_depth of the
+/// camera samples, photons.max_bounces of the emitted photon power (docs/design.md, The path
+/// tracer); `fogmap validate` fails above it. A cut biases the result low by about its share.
+inline constexpr double kCapWarnShare = 0.001;
+
 struct RenderSettings {
     Integrator integrator = Integrator::Auto;
     int spp = 16;  ///< samples per pixel, >= 1
@@ -119,7 +124,7 @@ struct RenderSettings {
     int guide_vertices = 0;
     /// Scattering/bounce vertices per path, >= 1 (1 = direct light only). Paths end by Russian
     /// roulette; this is a safety limit far beyond what media of albedo < 1 reach, and what it
-    /// cuts is reported (a warning above 0.1% of the samples).
+    /// cuts is reported (a warning above kCapWarnShare of the samples).
     int max_depth = 1000000;
     uint64_t seed = 1;  ///< results are a function of the seed alone
     int threads = 0;    ///< 0 = all cores
@@ -138,7 +143,7 @@ struct PhotonDesc {
     std::optional<uint64_t> volume;
     uint64_t max_emitted = 0;  ///< cap on emitted photons; 0 = 100 x the largest budget
     /// Interactions per photon path, >= 1. Photons end by Russian roulette on the albedo; this is
-    /// a safety limit, and the power it cuts is reported (a warning above 0.1%).
+    /// a safety limit, and the power it cuts is reported (a warning above kCapWarnShare).
     int max_bounces = 1000000;
     uint64_t volume_or_default() const { return volume.value_or(kDefaultVolumePhotons); }
 };

@@ -48,7 +48,7 @@ inline Color direct_diffuse(const Scene& scene, std::vector<Medium::Sampler>& me
         const float cos = glm::dot(n, s.wi);
         if (s.pdf <= 0.0f || cos <= 0.0f || max_component(s.Li) <= 0.0f) continue;
         const Color T = shadow_transmittance(scene, media, Ray{origin, s.wi},
-                                             s.dist * (1.0f - 1e-4f), rng, rays);
+                                             s.dist * (1.0f - kShadowRayEpsilon), rng, rays);
         sum += s.Li * T * (cos / s.pdf);
     }
     return albedo * kInvPi * sum;

@@ -6,10 +6,9 @@
 #include "media/volume_gen.h"
 #include "render/pipeline.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
-
-#include <filesystem>
 
 namespace fogmap {
 namespace {
@@ -56,7 +55,8 @@ TEST(BeamEstimate, AgreesWithSphereEstimateInHomogeneousFog) {
 }
 
 TEST(BeamEstimate, AgreesWithSphereEstimateInHeterogeneousVdb) {
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_beam_blob.vdb";
+    const test::TempDir dir("fogmap_beam");
+    const auto path = dir.path() / "blob.vdb";
     // A smooth blob: density 1 at the centre falling to 0 at radius 12 voxels.
     write_float_grid(
         path.string(), "density", 25, 25, 25,
@@ -68,7 +68,6 @@ TEST(BeamEstimate, AgreesWithSphereEstimateInHeterogeneousVdb) {
     MediumDesc m = test::vdb_medium(path.string(), Color(3.0f), Color(0.3f));
     m.g = 0.2f;
     const auto [sphere, beam] = sphere_and_beam(lit_medium(m));
-    std::filesystem::remove(path);
     ASSERT_GT(sphere, 0.0);
     EXPECT_NEAR(beam, sphere, 0.03 * sphere);
 }

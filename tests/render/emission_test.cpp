@@ -36,18 +36,12 @@ struct Estimate {
 /// Per-channel mean and standard error of n samples of f(rng).
 template <class F>
 Estimate estimate(int n, F&& f) {
-    DVec3 sum(0.0), sum2(0.0);
+    SampleStats<DVec3> samples;
     for (int i = 0; i < n; ++i) {
         Rng rng(11, static_cast<uint64_t>(i));
-        const DVec3 v(f(rng));
-        sum += v;
-        sum2 += v * v;
+        samples.add(DVec3(f(rng)));
     }
-    Estimate e;
-    e.mean = sum / double(n);
-    e.standard_error =
-        glm::sqrt(glm::max(sum2 / double(n) - e.mean * e.mean, DVec3(0.0)) / double(n));
-    return e;
+    return {samples.mean(), samples.standard_error()};
 }
 
 /// The path tracer's radiance along kRay, and the photon integrator's emission layer.

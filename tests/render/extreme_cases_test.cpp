@@ -18,6 +18,7 @@
 #include "render/run_setup.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
@@ -91,21 +92,6 @@ private:
     std::thread thread_;
 };
 
-/// A scratch folder for the grids one test writes, removed afterwards.
-class TempDir {
-public:
-    explicit TempDir(const std::string& name)
-        : path_(fs::temp_directory_path() / ("fogmap_extreme_" + name)) {
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() { fs::remove_all(path_); }
-    const fs::path& path() const { return path_; }
-
-private:
-    fs::path path_;
-};
-
 /// 8x6 pixels looking at the origin from +z, a uniform sky and a sun, no surfaces; small photon
 /// budgets, one thread (the tests share two cores); the default depth limits (paths end by
 /// Russian roulette).
@@ -156,28 +142,13 @@ SceneDesc tau_per_voxel_scene(const fs::path& dir, float tau_voxel, float albedo
     return d;
 }
 
-struct ImageStats {
-    double mean = 0.0, standard_error = 0.0;
-};
-
-// Mean over pixels of channel 0 and its standard error (pixels are independent estimates).
-ImageStats image_stats(const Image& img) {
-    const double n = static_cast<double>(img.pixels.size());
-    double sum = 0.0, sum2 = 0.0;
-    for (const Color& c : img.pixels) {
-        sum += c.x;
-        sum2 += static_cast<double>(c.x) * c.x;
-    }
-    const double mean = sum / n;
-    const double var = std::max(0.0, sum2 / n - mean * mean) * n / (n - 1.0);
-    return {mean, std::sqrt(var / n)};
-}
-
-/// Expects the image mean within 4 standard errors (+ floor) of `expected`.
+/// Expects the image mean over pixels of channel 0 within 4 standard errors (+ floor) of
+/// `expected` (pixels are independent estimates; the unbiased variance).
 void expect_mean(const Image& img, double expected, double floor, const std::string& what) {
-    const ImageStats s = image_stats(img);
-    EXPECT_NEAR(s.mean, expected, 4.0 * s.standard_error + floor)
-        << what << ": mean " << s.mean << " +- " << s.standard_error;
+    SampleStats<> s;
+    for (const Color& c : img.pixels) s.add(c.x);
+    const double mean = s.mean(), se = s.standard_error_unbiased();
+    EXPECT_NEAR(mean, expected, 4.0 * se + floor) << what << ": mean " << mean << " +- " << se;
 }
 
 void expect_all_zero(const Image& img, const std::string& what) {
@@ -544,10 +515,7 @@ std::vector<Case> placement_cases() {
         "SpotLightAndCameraInsideMedium", [](const fs::path&) {
             SceneDesc d = base_scene();
             add_ground(&d);
-            LightDesc spot = point_light(Vec3(0.0f, 0.5f, 0.0f), 20.0f);
-            spot.type = LightType::Spot;
-            spot.direction = Vec3(0.0f, -1.0f, 0.0f);
-            d.lights = {spot};
+            d.lights = {spot_light(Vec3(0.0f, 0.5f, 0.0f), Vec3(0.0f, -1.0f, 0.0f), 20.0f)};
             d.camera.position = Vec3(0.3f, 0.0f, 1.0f);
             d.media.push_back(homogeneous(Box3{Vec3(-2.0f), Vec3(2.0f)}, Color(0.5f), Color(0.1f)));
             return d;
@@ -637,14 +605,10 @@ void expect_same_as(const SameAs& same, const PipelineResult& result, const Scen
             << name << ": not bit-identical to its equivalent scene";
         return;
     }
-    const double n = static_cast<double>(a.pixels.size());
-    double sum = 0.0, sum2 = 0.0;
-    for (size_t i = 0; i < a.pixels.size(); ++i) {
-        const double d = double(a.pixels[i].x) - b.pixels[i].x;
-        sum += d;
-        sum2 += d * d;
-    }
-    const double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / (n - 1.0));
+    SampleStats<> difference;
+    for (size_t i = 0; i < a.pixels.size(); ++i)
+        difference.add(double(a.pixels[i].x) - b.pixels[i].x);
+    const double mean = difference.mean(), se = difference.standard_error_unbiased();
     EXPECT_NEAR(a.mean(), b.mean(), 4.0 * se + same.floor * b.mean())
         << name << ": mean difference " << mean << " ± " << se << " against its equivalent scene";
 }
@@ -655,7 +619,7 @@ TEST_P(ExtremeCase, FinitePixelsInBoundedTimeOrInputError) {
     const Case& c = std::get<0>(GetParam());
     const Integrator integrator = std::get<1>(GetParam());
     const std::string name = c.name + "/" + to_string(integrator);
-    const TempDir dir(c.name + "_" + to_string(integrator));
+    const TempDir dir("fogmap_extreme_" + c.name + "_" + to_string(integrator));
     const Watchdog watchdog(name, c.timeout_s * kTimeScale);
     SceneDesc desc = c.scene(dir.path());
     desc.render.integrator = integrator;
@@ -718,7 +682,7 @@ INSTANTIATE_TEST_SUITE_P(Matrix, ExtremeCase,
 // negative and denormal values are set to 0 with a warning and counted per kind, in leaf voxels
 // and in active tiles (a tile counts the voxels it covers).
 TEST(ExtremeGrid, BadVoxelsAreSanitisedAndCounted) {
-    const TempDir dir("sanitize");
+    const TempDir dir("fogmap_extreme_sanitize");
     openvdb::initialize();
     auto grid = openvdb::FloatGrid::create(0.0f);
     grid->setName("density");
@@ -760,7 +724,7 @@ TEST(ExtremeGrid, BadVoxelsAreSanitisedAndCounted) {
 }
 
 TEST(ExtremeGrid, CleanGridLoadsWithoutWarning) {
-    const TempDir dir("clean");
+    const TempDir dir("fogmap_extreme_clean");
     const fs::path p = constant_grid(dir.path(), 4, 0.5f, 1.0f);
     testing::internal::CaptureStderr();
     const auto loaded = DensityGrid::load(p.string(), "density", "/media/0");

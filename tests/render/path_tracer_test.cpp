@@ -1,6 +1,7 @@
 // The reference path tracer against closed forms: white furnaces (energy is neither lost nor
 // gained), a diffuse plane under a sun, a plane under a rectangular area light (form factor),
-// single scattering in a slab, and bit-identical images for 1 and 2 threads.
+// single scattering in a slab and, with paths ended by PathPolicy::pixel_estimate, in a cube, and
+// bit-identical images for 1 and 2 threads.
 // Stochastic checks use n independent samples and a tolerance of 3 (or 4) standard errors of
 // the sample mean, estimated from the same samples.
 
@@ -44,8 +45,7 @@ MeanEstimate radiance_mean(const Scene& scene, int max_depth, const Ray& ray, in
 
 // Henyey–Greenstein written out independently of media/henyey_greenstein.h.
 double hg_phase_reference(double cos_theta, double g) {
-    return (1.0 - g * g) /
-           (4.0 * 3.14159265358979323846 * std::pow(1.0 + g * g - 2.0 * g * cos_theta, 1.5));
+    return (1.0 - g * g) / (4.0 * kPiDouble * std::pow(1.0 + g * g - 2.0 * g * cos_theta, 1.5));
 }
 
 SceneDesc base_desc() {
@@ -155,7 +155,7 @@ TEST(DiffusePlane, UnderRectangularLightMatchesFormFactor) {
     const double A = a / h, B = b / h;
     const double F = (A / std::sqrt(1 + A * A) * std::atan(B / std::sqrt(1 + A * A)) +
                       B / std::sqrt(1 + B * B) * std::atan(A / std::sqrt(1 + B * B))) /
-                     (2.0 * 3.14159265358979323846);
+                     (2.0 * kPiDouble);
     const Vec3 o(-0.5f, 0.5f, -0.5f);
     const Ray ray{o, glm::normalize(Vec3(0.0f) - o)};
     const MeanEstimate e = radiance_mean(*scene, 1, ray, 40000);
@@ -255,6 +255,63 @@ TEST(PathTracedSlab, MatchesAddingDoublingWithRouletteActive) {
         EXPECT_NEAR(td.mean + std::exp(-c.tau), ref.tt.mean, 3.0 * td.standard_error)
             << "Tt, tau " << c.tau;
     }
+}
+
+// PathPolicy's factories name the kind and carry only what it reads.
+TEST(PathPolicy, FactoriesNameTheirKind) {
+    const PathPolicy plain = PathPolicy::plain();
+    EXPECT_EQ(plain.kind(), MediumVertex::Continue);
+    EXPECT_FALSE(plain.guides(1));
+    EXPECT_FALSE(plain.sun_covers(0));
+    const PhotonMap empty;
+    const std::vector<Medium> media;
+    const AdjointGrid grid(empty, media, 0.25f);
+    const PathPolicy estimate = PathPolicy::pixel_estimate(grid);
+    EXPECT_EQ(estimate.kind(), MediumVertex::EndInGrid);
+    EXPECT_EQ(estimate.split().grid, &grid);
+    EXPECT_EQ(estimate.split().pixels, nullptr);
+    const Image pixels(1, 1);
+    const PathPolicy guided = PathPolicy::guided(nullptr, AdjointSplit{&grid, &pixels});
+    EXPECT_EQ(guided.kind(), MediumVertex::Guided);
+    EXPECT_FALSE(guided.guides(1));  // no guide: the phase alone
+    EXPECT_EQ(guided.split().pixels, &pixels);
+    const VolumeMapEnd end(empty, media, 0.25f, 2);
+    const PathPolicy map_end = PathPolicy::end_in_map(end, nullptr);
+    EXPECT_EQ(map_end.kind(), MediumVertex::EndInMap);
+    EXPECT_EQ(&map_end.end(), &end);
+    EXPECT_FALSE(map_end.sun_covers(0));
+}
+
+// PathPolicy::pixel_estimate ends paths at their first medium vertex with its direct light plus
+// L̃; with an empty map L̃ is 0, so the estimate is single scattering, here in closed form: a ray
+// along z through the middle of the cube [−1, 1]³ under a sun straight above (its shadow rays 1
+// long, at 90° to the ray), L = σ_s p(0) E e^{−σ_t} (1 − e^{−2 σ_t}) / σ_t. Tolerance 4 SE.
+TEST(PathPolicy, PixelEstimateWithNoLightToComeIsSingleScattering) {
+    const double sigma_s = 0.6, sigma_a = 0.4, g = 0.3, sigma_t = sigma_s + sigma_a;
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), 1.0f));
+    d.media.push_back(homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(float(sigma_s)),
+                                  Color(float(sigma_a)), float(g)));
+    const auto scene = load_scene(d);
+    const PhotonMap empty;
+    const AdjointGrid grid(empty, scene->media, 0.25f);
+    const PathTracer tracer(*scene, RenderSettings{}.max_depth, PathPolicy::pixel_estimate(grid));
+    PathTracer::ThreadState ts = tracer.make_state();
+    constexpr int kN = 40000;
+    double sum = 0.0, sum2 = 0.0;
+    for (int i = 0; i < kN; ++i) {
+        Rng rng(47, i);
+        const double v =
+            tracer.radiance(Ray{Vec3(0.0f, 0.0f, -3.0f), Vec3(0.0f, 0.0f, 1.0f)}, rng, ts).x;
+        sum += v;
+        sum2 += v * v;
+    }
+    const double mean = sum / kN;
+    const double se = std::sqrt(std::max(0.0, sum2 / kN - mean * mean) / kN);
+    const double expected = sigma_s * hg_phase_reference(0.0, g) * std::exp(-sigma_t) *
+                            (1.0 - std::exp(-2.0 * sigma_t)) / sigma_t;
+    EXPECT_NEAR(mean, expected, 4.0 * se);
+    EXPECT_GT(se, 0.0);
 }
 
 TEST(Determinism, OneAndTwoThreadsGiveIdenticalPixels) {

@@ -38,15 +38,9 @@ struct AgreementCase {
 
 /// The mean over pixels of b − a (channel averages) and its standard error.
 std::pair<double, double> mean_difference(const Image& b, const Image& a) {
-    const double n = static_cast<double>(a.pixels.size());
-    double sum = 0.0, sum2 = 0.0;
-    for (size_t i = 0; i < a.pixels.size(); ++i) {
-        const double d = average(b.pixels[i]) - average(a.pixels[i]);
-        sum += d;
-        sum2 += d * d;
-    }
-    const double mean = sum / n;
-    return {mean, std::sqrt((sum2 / n - mean * mean) / (n - 1.0))};
+    test::SampleStats<> d;
+    for (size_t i = 0; i < a.pixels.size(); ++i) d.add(average(b.pixels[i]) - average(a.pixels[i]));
+    return {d.mean(), d.standard_error_unbiased()};
 }
 
 void check_agreement(const AgreementCase& c) {

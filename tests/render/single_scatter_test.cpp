@@ -7,6 +7,7 @@
 #include "render/photon_integrator.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -50,25 +51,16 @@ double quadrature(int n, Incident&& incident) {
     return sum * h / 3.0;
 }
 
-struct MeanEstimate {
-    double mean, standard_error;
-};
-
 MeanEstimate single_scatter_mean(const SceneDesc& d, int n) {
     const auto scene = load_scene(d);
     const PhotonMaps maps;
     const PhotonIntegrator integrator(*scene, maps, gather_params(d, *scene, maps, false), d.march,
                                       d.render.max_depth);
     PhotonIntegrator::ThreadState ts = integrator.make_state();
-    double sum = 0.0, sum2 = 0.0;
-    for (int i = 0; i < n; ++i) {
+    return estimate_mean(n, [&](int i) {
         Rng rng(5, i);
-        const double v = integrator.radiance(kRay, rng, ts)[Layer::VolumeSingle].x;
-        sum += v;
-        sum2 += v * v;
-    }
-    const double mean = sum / n;
-    return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
+        return integrator.radiance(kRay, rng, ts)[Layer::VolumeSingle].x;
+    });
 }
 
 // Every light_samples setting (0: a shadow ray at every step) within 4 standard errors.
@@ -82,10 +74,7 @@ void expect_matches(const LightDesc& light, std::initializer_list<int> light_sam
 }
 
 TEST(SingleScatterSampling, PointLightNextToTheRayMatchesQuadrature) {
-    LightDesc light;
-    light.type = LightType::Point;
-    light.position = Vec3(0.3f, 0.1f, 0.0f);
-    light.intensity = Color(2.0f);
+    const LightDesc light = point_light(Vec3(0.3f, 0.1f, 0.0f), 2.0f);
     // The 1/r² peak of a light 0.1 from the ray is 0.1 wide: 200 000 panels.
     const double expected = quadrature(200000, [&](const Vec3& x) {
         const double r = glm::length(light.position - x);
@@ -95,13 +84,8 @@ TEST(SingleScatterSampling, PointLightNextToTheRayMatchesQuadrature) {
 }
 
 TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
-    LightDesc light;
-    light.type = LightType::Spot;
-    light.position = Vec3(0.0f, 0.6f, 0.0f);
-    light.direction = Vec3(0.0f, -1.0f, 0.0f);
-    light.intensity = Color(3.0f);
-    light.cone_angle_deg = 30.0f;
-    light.cone_delta_deg = 10.0f;
+    const LightDesc light =
+        spot_light(Vec3(0.0f, 0.6f, 0.0f), Vec3(0.0f, -1.0f, 0.0f), 3.0f, 30.0f, 10.0f);
     // The spot's emission written out here: intensity I within 20° of the axis, falling as the
     // cubic smoothstep t²(3 − 2t) of the cosine to 0 at 30°, over r², times the medium's
     // transmittance.
@@ -118,12 +102,8 @@ TEST(SingleScatterSampling, SpotLightMatchesQuadrature) {
 TEST(SingleScatterSampling, QuadLightMatchesQuadrature) {
     // A small square light facing down at y = 0.9, inside the cube; its solid angle integral is
     // done by a 32×32 midpoint rule per quadrature point (the square is 0.2 wide).
-    LightDesc light;
-    light.type = LightType::Quad;
-    light.corner = Vec3(-0.1f, 0.9f, -0.1f);
-    light.edge_u = Vec3(0.2f, 0.0f, 0.0f);
-    light.edge_v = Vec3(0.0f, 0.0f, 0.2f);
-    light.radiance = Color(4.0f);
+    const LightDesc light =
+        quad_light(Vec3(-0.1f, 0.9f, -0.1f), Vec3(0.2f, 0.0f, 0.0f), Vec3(0.0f, 0.0f, 0.2f), 4.0f);
     const Light l = make_light(light);
     const double expected = quadrature(2000, [&](const Vec3& x) {
         const int k = 32;

@@ -8,11 +8,11 @@
 #include "render/pipeline.h"
 #include "scene/scene.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <filesystem>
 
 namespace fogmap {
 namespace {
@@ -67,7 +67,8 @@ TEST(Transmittance, DirectLightThroughHomogeneousFogHasNoVarianceInThePathTracer
 // nonzero control and a residual): the mean of ratio_track equals exp(−τ) with τ integrated by a
 // 20000-point midpoint rule of the trilinear density along the ray, within 3 standard errors.
 TEST(Transmittance, ResidualRatioTrackingIsUnbiasedInAHeterogeneousGrid) {
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_residual.vdb";
+    const TempDir dir("fogmap_residual");
+    const auto path = dir.path() / "residual.vdb";
     write_float_grid(
         path.string(), "density", 16, 16, 16,
         [](int i, int j, int k) {
@@ -77,7 +78,6 @@ TEST(Transmittance, ResidualRatioTrackingIsUnbiasedInAHeterogeneousGrid) {
     SceneDesc d;
     d.media.push_back(vdb_medium(path.string(), Color(1.5f, 1.0f, 0.5f), Color(0.5f)));
     const auto scene = load_scene(d);
-    std::filesystem::remove(path);
     std::vector<Medium::Sampler> media;
     for (const Medium& m : scene->media) media.emplace_back(m);
     const Ray ray{Vec3(-0.5f, 0.9f, 1.1f), glm::normalize(Vec3(1.0f, 0.2f, -0.1f))};
@@ -90,16 +90,12 @@ TEST(Transmittance, ResidualRatioTrackingIsUnbiasedInAHeterogeneousGrid) {
     ASSERT_GT(optical_length, 0.5);
     for (int c = 0; c < 3; ++c) {
         const double sigma_t = scene->media[0].sigma_t()[c];
-        double sum = 0.0, sum2 = 0.0;
-        constexpr int kN = 20000;
-        for (int i = 0; i < kN; ++i) {
+        const MeanEstimate e = estimate_mean(20000, [&](int i) {
             Rng rng(31, i);
-            const double v = ratio_track(media, ray, kInfinity, rng)[c];
-            sum += v;
-            sum2 += v * v;
-        }
-        const double mean = sum / kN, se = std::sqrt(std::max(0.0, sum2 / kN - mean * mean) / kN);
-        EXPECT_NEAR(mean, std::exp(-sigma_t * optical_length), 3.0 * se + 1e-6) << "channel " << c;
+            return ratio_track(media, ray, kInfinity, rng)[c];
+        });
+        EXPECT_NEAR(e.mean, std::exp(-sigma_t * optical_length), 3.0 * e.standard_error + 1e-6)
+            << "channel " << c;
     }
 }
 

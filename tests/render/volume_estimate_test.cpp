@@ -8,6 +8,7 @@
 #include "render/path_tracer.h"
 #include "render/run_setup.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -35,19 +36,14 @@ float exit_distance(const Vec3& x, const Vec3& d) {
     return t;
 }
 
-struct Estimate {
-    double mean, standard_error;
-};
-
 // σ_s ∫ p L_ms dω averaged over the ball of radius kRadius around c, for light leaving along wo:
 // x uniform in the ball, travel direction ω ~ p(ω·wo) (so the phase cancels its pdf), and the
 // path tracer's radiance arriving along ω minus its unscattered part T·L_sky.
-Estimate reference(const Scene& scene, const Vec3& c, const Vec3& wo, int n) {
+test::MeanEstimate reference(const Scene& scene, const Vec3& c, const Vec3& wo, int n) {
     const PathTracer tracer(scene, 100000);
     PathTracer::ThreadState ts = tracer.make_state();
     const float sigma_t = kSigmaS + kSigmaA;
-    double sum = 0.0, sum2 = 0.0;
-    for (int i = 0; i < n; ++i) {
+    return test::estimate_mean(n, [&](int i) {
         Rng rng(77, i);
         Vec3 offset;
         do {
@@ -59,12 +55,8 @@ Estimate reference(const Scene& scene, const Vec3& c, const Vec3& wo, int n) {
         const Vec3 back = -travel;
         const double L = tracer.radiance(Ray{x, back}, rng, ts).x;
         const double direct = std::exp(-sigma_t * exit_distance(x, back));
-        const double v = kSigmaS * (L - direct);
-        sum += v;
-        sum2 += v * v;
-    }
-    const double mean = sum / n;
-    return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
+        return kSigmaS * (L - direct);
+    });
 }
 
 TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
@@ -72,7 +64,7 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
     const std::vector<Vec3> points{Vec3(0.0f), Vec3(0.4f, 0.0f, 0.0f), Vec3(0.0f, -0.4f, 0.2f)};
     const Vec3 wo(0.0f, 0.0f, 1.0f);
     const auto scene = load_scene(d);
-    std::vector<Estimate> ref;
+    std::vector<test::MeanEstimate> ref;
     for (const Vec3& p : points) ref.push_back(reference(*scene, p, wo, 40000));
 
     // Independent photon maps (8 seeds) give each estimate's standard error from their spread:
@@ -97,14 +89,13 @@ TEST(VolumeEstimate, HomogeneousInScatteringConvergesToThePathTracer) {
         }
         double error = 0.0;  // mean relative error of single maps
         for (size_t i = 0; i < points.size(); ++i) {
-            double sum = 0.0, sum2 = 0.0;
+            test::SampleStats<> maps;
             for (double e : est[i]) {
-                sum += e;
-                sum2 += e * e;
+                maps.add(e);
                 error += std::abs(e - ref[i].mean) / ref[i].mean;
             }
-            const double mean = sum / kSeeds;
-            const double se_pm = std::sqrt((sum2 / kSeeds - mean * mean) / (kSeeds - 1));
+            const double mean = maps.mean();
+            const double se_pm = maps.standard_error_unbiased();
             const double se =
                 std::sqrt(se_pm * se_pm + ref[i].standard_error * ref[i].standard_error);
             if (n == 80000u) {

@@ -6,10 +6,10 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <png.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -28,28 +28,19 @@ namespace fs = std::filesystem;
 /// A fresh empty directory per test, removed afterwards.
 class ImageIoTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() / ("fogmap_image_io_" + std::string(info->name()) + "_" +
-                                            std::to_string(static_cast<long>(::getpid())));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+    std::string path(const std::string& name) const { return (tmp_.path() / name).string(); }
 
     /// Names in the test directory that contain ".tmp-" (left-over temp files).
     std::vector<std::string> temp_files() const {
         std::vector<std::string> found;
-        for (const auto& entry : fs::directory_iterator(dir_)) {
+        for (const auto& entry : fs::directory_iterator(tmp_.path())) {
             const std::string name = entry.path().filename().string();
             if (name.find(".tmp-") != std::string::npos) found.push_back(name);
         }
         return found;
     }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_image_io"};
 };
 
 /// Random finite floats spread over many binades and both signs, plus special values.

@@ -1,13 +1,17 @@
 // Rng: uniform() stays in [0, 1) with the moments of U(0, 1), equal-width bins are filled evenly
-// (chi-square), streams from different (a, b) are uncorrelated and a stream is reproducible.
+// (chi-square), streams from different (a, b) are uncorrelated and a stream is reproducible;
+// seeds derived from a render seed and a stream key (derive_seed) never coincide.
 // Tolerances are 4 standard errors of the estimator (two-sided p ≈ 6e-5 per check).
 
 #include "core/rng.h"
+
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -16,14 +20,6 @@ namespace {
 
 constexpr int kDraws = 1000000;
 constexpr uint64_t kSeed = 0x5EEDF06ull;
-
-/// Upper quantile of chi-square with k degrees of freedom by the Wilson–Hilferty cube
-/// approximation: k (1 − 2/(9k) + z sqrt(2/(9k)))³, z the standard normal quantile.
-double chi_square_quantile(double k, double z) {
-    const double a = 2.0 / (9.0 * k);
-    const double t = 1.0 - a + z * std::sqrt(a);
-    return k * t * t * t;
-}
 
 /// Sample Pearson correlation of two streams' uniform() draws.
 double correlation(Rng x_rng, Rng y_rng, int n) {
@@ -79,11 +75,9 @@ TEST(Rng, ChiSquareOfHundredBinsIsBelowCriticalValue) {
     std::vector<int> counts(kBins, 0);
     Rng rng(kSeed, 3, 4);
     for (int i = 0; i < kDraws; ++i) ++counts[static_cast<int>(rng.uniform() * kBins)];
-    const double expected = static_cast<double>(kDraws) / kBins;
-    double chi2 = 0.0;
-    for (int c : counts) chi2 += (c - expected) * (c - expected) / expected;
+    const double chi2 = test::chi_square(counts, static_cast<double>(kDraws) / kBins);
     // 99 degrees of freedom, 0.999 quantile (z = 3.0902); Wilson–Hilferty is good to ~0.1% here.
-    EXPECT_LT(chi2, chi_square_quantile(kBins - 1, 3.090232));
+    EXPECT_LT(chi2, test::chi_square_quantile(kBins - 1, 3.090232));
 }
 
 TEST(Rng, StreamsWithDifferentIndicesAreUncorrelated) {
@@ -120,6 +114,24 @@ TEST(Rng, SameSeedAndIndicesGiveSameSequence) {
     }
     // Another stream agrees on a draw with probability 2^-32: all 10000 should differ.
     EXPECT_EQ(10000, differing);
+}
+
+// derive_seed over the first 1000 render seeds, two indices each, against a brute-force set:
+// every derived seed differs from every other (a collision among 2000 unrelated 64-bit values has
+// probability ~1e-13). The xor form it replaced gave seeds 2j and 2j + 1 the same pair, swapped.
+TEST(StreamKeys, DerivedSeedsOfDifferentSeedsNeverCoincide) {
+    const auto xor_form = [](uint64_t seed, uint64_t k) {
+        return mix64(seed ^ (stream::kPilot + k));
+    };
+    EXPECT_EQ(xor_form(6, 0), xor_form(7, 1));
+    std::set<uint64_t> seen;
+    for (uint64_t seed = 0; seed < 1000; ++seed)
+        for (uint64_t k = 0; k < 2; ++k)
+            EXPECT_TRUE(seen.insert(derive_seed(seed, stream::kPilot, k)).second)
+                << "seed " << seed << ", index " << k;
+    // Another key gives other seeds.
+    for (uint64_t seed = 0; seed < 1000; ++seed)
+        EXPECT_EQ(seen.count(derive_seed(seed, stream::kPixelEstimate, 0)), 0u) << seed;
 }
 
 }  // namespace

@@ -14,7 +14,6 @@
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -35,18 +34,10 @@ const std::string kShared = FOGMAP_SHARED_VOLUMES;
 /// A fresh directory per test, removed afterwards.
 class DensityGridTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        openvdb::initialize();
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::path(::testing::TempDir()) /
-               ("fogmap_dg_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+    void SetUp() override { openvdb::initialize(); }
+    std::string path(const std::string& name) const { return (tmp_.path() / name).string(); }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_dg"};
 };
 
 /// Writes an OpenVDB grid built by the test itself (tiles, other value types, backgrounds).

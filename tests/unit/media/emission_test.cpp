@@ -42,19 +42,19 @@ TEST(Emission, ConstantBlockEmitsItsAnalyticPower) {
     // their colour (channel average 1).
     Medium::Sampler s(m);
     constexpr int kAttempts = 200000;
-    DVec3 sum(0.0), sum2(0.0);
+    test::SampleStats<DVec3> power;
     for (int i = 0; i < kAttempts; ++i) {
         Rng rng(7, static_cast<uint64_t>(i));
         Vec3 p;
         Color c;
-        if (!s.sample_emission(rng, &p, &c)) continue;
+        if (!s.sample_emission(rng, &p, &c)) {
+            power.add(DVec3(0.0));  // a rejected attempt carries nothing
+            continue;
+        }
         EXPECT_TRUE(m.world_bounds().contains(p));
-        const DVec3 x = m.emission_bound_power() * DVec3(c);
-        sum += x;
-        sum2 += x * x;
+        power.add(m.emission_bound_power() * DVec3(c));
     }
-    const DVec3 mean = sum / double(kAttempts);
-    const DVec3 se = glm::sqrt((sum2 / double(kAttempts) - mean * mean) / double(kAttempts));
+    const DVec3 mean = power.mean(), se = power.standard_error();
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(mean[c], expected[c], 4.0 * se[c]) << "channel " << c;
     EXPECT_NEAR(m.emitted_power(), (expected.x + expected.y + expected.z) / 3.0, 0.01 * expected.x);
 }

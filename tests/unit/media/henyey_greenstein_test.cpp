@@ -6,6 +6,7 @@
 
 #include "core/math.h"
 #include "core/rng.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -42,13 +43,6 @@ double hg_cdf_inverse_bisect(double p, double g) {
 long double hg_inverse_textbook(long double g, long double xi) {
     const long double q = (1.0L - g * g) / (1.0L - g + 2.0L * g * xi);
     return (1.0L + g * g - q * q) / (2.0L * g);
-}
-
-/// Upper chi-square quantile for k degrees of freedom (Wilson–Hilferty), z the normal quantile.
-double chi_square_quantile(double k, double z) {
-    const double a = 2.0 / (9.0 * k);
-    const double t = 1.0 - a + z * std::sqrt(a);
-    return k * t * t * t;
 }
 
 /// 2π ∫ p(μ) dμ over [−1, 1] by composite Simpson on dyadic panels graded towards the peak
@@ -126,15 +120,13 @@ TEST(HenyeyGreenstein, SampledCosinesFollowAnalyticCdf) {
             const float c = hg_sample_cos(g, rng.uniform());
             ++counts[std::upper_bound(edges.begin(), edges.end(), c) - edges.begin()];
         }
-        double chi2 = 0.0;
-        for (size_t b = 0; b < counts.size(); ++b) {
-            const double expected = kSamples * probability[b];
-            chi2 += (counts[b] - expected) * (counts[b] - expected) / expected;
-        }
+        std::vector<double> expected;
+        for (double p : probability) expected.push_back(kSamples * p);
+        const double chi2 = test::chi_square(counts, expected);
         // Critical value at p = 0.001 (z = 3.0902) for bins − 1 degrees of freedom,
         // by Wilson–Hilferty (≈ 148.2 for 99).
         const double critical =
-            chi_square_quantile(static_cast<double>(counts.size()) - 1.0, 3.090232);
+            test::chi_square_quantile(static_cast<double>(counts.size()) - 1.0, 3.090232);
         EXPECT_LT(chi2, critical) << "g = " << g << ", bins = " << counts.size();
     }
 }

@@ -5,30 +5,24 @@
 
 #include "media/light_depth.h"
 
-#include "media/volume_gen.h"
 #include "render/sun_shadows.h"
 #include "scene_builders.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <cmath>
-#include <filesystem>
 #include <functional>
 #include <memory>
 
 namespace fogmap {
 namespace {
 
-std::shared_ptr<const DensityGrid> grid_of(const std::string& name, int n, float voxel,
+// An n³ grid of voxel `voxel` from (−3, 1, 2).
+std::shared_ptr<const DensityGrid> grid_of(int n, float voxel,
                                            const std::function<float(int, int, int)>& value) {
-    const auto path =
-        std::filesystem::temp_directory_path() / ("fogmap_light_depth_" + name + ".vdb");
-    write_float_grid(path.string(), "density", n, n, n, value, Vec3(voxel),
-                     Vec3(-3.0f, 1.0f, 2.0f));
-    std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
-    return grid;
+    return test::density_grid(n, n, n, value, Vec3(voxel), Vec3(-3.0f, 1.0f, 2.0f));
 }
 
 // ∫ density from x along `dir` over `length`, 10 000 midpoint steps.
@@ -75,7 +69,7 @@ DepthError compare(const Medium& medium, const Vec3& to_light, float spacing) {
 // h² τ''/8, 0.3% of the largest depth at one voxel (the bias render/sun_shadows.h accepts), and
 // a quarter of that at half a voxel.
 TEST(LightDepth, SmoothDensityMatchesABruteForceIntegralToSecondOrder) {
-    const auto grid = grid_of("puff", 40, 0.5f, [](int i, int j, int k) {
+    const auto grid = grid_of(40, 0.5f, [](int i, int j, int k) {
         const float r2 = float((i - 20) * (i - 20) + (j - 18) * (j - 18) + (k - 22) * (k - 22));
         return 2.0f * std::exp(-r2 / (2.0f * 7.0f * 7.0f));
     });
@@ -95,8 +89,8 @@ TEST(LightDepth, SmoothDensityMatchesABruteForceIntegralToSecondOrder) {
 
 TEST(SunShadows, TransmittanceMatchesRatioTrackingTowardsTheSun) {
     // Two overlapping chromatic media; the sun travels along −to_light.
-    const auto a = grid_of("a", 24, 0.5f, [](int i, int, int k) { return 0.05f * float(i + k); });
-    const auto b = grid_of("b", 24, 0.4f, [](int, int j, int) { return 0.08f * float(j % 7); });
+    const auto a = grid_of(24, 0.5f, [](int i, int, int k) { return 0.05f * float(i + k); });
+    const auto b = grid_of(24, 0.4f, [](int, int j, int) { return 0.08f * float(j % 7); });
     std::vector<Medium> media;
     media.push_back(
         Medium::heterogeneous({Color(0.3f, 0.4f, 0.5f), Color(0.1f), 0.0f}, a, Mat4(1.0f)));
@@ -114,19 +108,13 @@ TEST(SunShadows, TransmittanceMatchesRatioTrackingTowardsTheSun) {
     Rng rng(3, 0);
     for (const Vec3 x : {Vec3(3.0f, 4.0f, 8.0f), Vec3(5.0f, 6.0f, 5.0f), Vec3(1.0f, -6.0f, 9.0f)}) {
         const int n = 4000;
-        Color sum(0.0f), sum2(0.0f);
-        for (int i = 0; i < n; ++i) {
-            const Color t = ratio_track(samplers, Ray{x, to_light}, kInfinity, rng);
-            sum += t;
-            sum2 += t * t;
-        }
-        const Color mean = sum / float(n);
+        test::SampleStats<DVec3> walks;
+        for (int i = 0; i < n; ++i)
+            walks.add(DVec3(ratio_track(samplers, Ray{x, to_light}, kInfinity, rng)));
+        const DVec3 mean = walks.mean(), se = walks.standard_error();
         const Color expected = sun.transmittance(1, x);
-        for (int c = 0; c < 3; ++c) {
-            const double se =
-                std::sqrt(std::max(0.0, double(sum2[c]) / n - double(mean[c]) * mean[c]) / n);
-            EXPECT_NEAR(expected[c], mean[c], 4.0 * se + 0.005) << "channel " << c;
-        }
+        for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(expected[c], mean[c], 4.0 * se[c] + 0.005) << "channel " << c;
         EXPECT_LT(max_component(expected), 0.95f);  // the points are shadowed
     }
     // A sun wider than 1° keeps its walks (its penumbra is not a voxel's blur).

@@ -4,33 +4,16 @@
 
 #include "media/medium.h"
 
-#include "media/volume_gen.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <memory>
 
 namespace fogmap {
 namespace {
 
-struct MeanEstimate {
-    double mean = 0.0, standard_error = 0.0;
-};
-
-// Mean and standard error of n draws of f().
-template <class F>
-MeanEstimate estimate(int n, F&& f) {
-    double sum = 0.0, sum2 = 0.0;
-    for (int i = 0; i < n; ++i) {
-        const double v = f(i);
-        sum += v;
-        sum2 += v * v;
-    }
-    const double mean = sum / n;
-    const double var = std::max(0.0, sum2 / n - mean * mean);
-    return {mean, std::sqrt(var / n)};
-}
+using test::MeanEstimate;
 
 // One sampler per medium (samplers are move-only, so no initializer lists).
 std::vector<Medium::Sampler> samplers(std::initializer_list<const Medium*> media) {
@@ -39,15 +22,10 @@ std::vector<Medium::Sampler> samplers(std::initializer_list<const Medium*> media
     return out;
 }
 
-// A cube of n^3 voxels (index 0..n-1) of density 1 written to a temp VDB and loaded.
+// A cube of n^3 voxels (index 0..n-1) of density 1.
 std::shared_ptr<const DensityGrid> constant_cube(int n, float voxel_size) {
-    const auto path = std::filesystem::temp_directory_path() /
-                      ("fogmap_medium_cube_" + std::to_string(n) + ".vdb");
-    write_float_grid(
-        path.string(), "density", n, n, n, [](int, int, int) { return 1.0f; }, Vec3(voxel_size));
-    std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
-    return grid;
+    return test::density_grid(
+        n, n, n, [](int, int, int) { return 1.0f; }, Vec3(voxel_size));
 }
 
 TEST(RatioTracking, HomogeneousSlabMatchesBeerLambert) {
@@ -56,7 +34,7 @@ TEST(RatioTracking, HomogeneousSlabMatchesBeerLambert) {
     const Medium m = Medium::homogeneous({Color(sigma_t * 0.7f), Color(sigma_t * 0.3f), 0.0f}, box);
     std::vector<Medium::Sampler> media = samplers({&m});
     const Ray ray{Vec3(-1.0f, 5.0f, 5.0f), Vec3(1.0f, 0.0f, 0.0f)};
-    const MeanEstimate e = estimate(20000, [&](int i) {
+    const MeanEstimate e = test::estimate_mean(20000, [&](int i) {
         Rng rng(7, i);
         return ratio_track(media, ray, kInfinity, rng).x;
     });
@@ -99,7 +77,7 @@ TEST(DeltaTracking, ChromaticWeightsGiveEachChannelsTransmittance) {
     std::vector<Medium::Sampler> media = samplers({&m});
     const Ray ray{Vec3(-1.0f, 0.5f, 0.5f), Vec3(1.0f, 0.0f, 0.0f)};
     for (int c = 0; c < 3; ++c) {
-        const MeanEstimate e = estimate(40000, [&](int i) {
+        const MeanEstimate e = test::estimate_mean(40000, [&](int i) {
             Rng rng(11, i);
             Color beta(1.0f);
             const TrackResult r = delta_track(media, ray, kInfinity, rng, &beta);
@@ -116,7 +94,7 @@ TEST(RatioTracking, OverlappingMediaMultiply) {
                                          Box3{Vec3(1.0f, 0.0f, 0.0f), Vec3(3.0f, 1.0f, 1.0f)});
     std::vector<Medium::Sampler> media = samplers({&a, &b});
     const Ray ray{Vec3(-1.0f, 0.5f, 0.5f), Vec3(1.0f, 0.0f, 0.0f)};
-    const MeanEstimate e = estimate(40000, [&](int i) {
+    const MeanEstimate e = test::estimate_mean(40000, [&](int i) {
         Rng rng(5, i);
         return ratio_track(media, ray, kInfinity, rng).x;
     });
@@ -158,7 +136,7 @@ TEST(RatioTrackPick, WeightsIntegrateInscatteringAndTransmittance) {
             tau += st * dt;
         }
         const auto check = [&](double expected, auto&& f, const char* what) {
-            const MeanEstimate e = estimate(100000, [&](int i) {
+            const MeanEstimate e = test::estimate_mean(100000, [&](int i) {
                 Rng rng(13, i);
                 return f(ratio_track_pick(media, ray, t_max, rng));
             });
@@ -191,7 +169,7 @@ TEST(RatioTrackPick, EmissionIntegratesAlongTheRay) {
     std::vector<Medium::Sampler> media = samplers({&m});
     const Ray ray{Vec3(-1.0f, 0.5f, 0.5f), Vec3(1.0f, 0.0f, 0.0f)};
     for (int c = 0; c < 3; ++c) {
-        const MeanEstimate est = estimate(40000, [&](int i) {
+        const MeanEstimate est = test::estimate_mean(40000, [&](int i) {
             Rng rng(17, i);
             Color emitted(0.0f);
             ratio_track_pick(media, ray, kInfinity, rng, &emitted);
@@ -214,14 +192,14 @@ TEST(RatioTracking, ConstantVdbCubeMatchesBeerLambertWithHalfVoxelRamp) {
     std::vector<Medium::Sampler> media = samplers({&m});
     // Through voxel centres (index y = z = 7): full density across.
     const Ray centre{Vec3(-2.0f, 7.0f * voxel, 7.0f * voxel), Vec3(1.0f, 0.0f, 0.0f)};
-    const MeanEstimate e = estimate(40000, [&](int i) {
+    const MeanEstimate e = test::estimate_mean(40000, [&](int i) {
         Rng rng(13, i);
         return ratio_track(media, centre, kInfinity, rng).x;
     });
     EXPECT_NEAR(e.mean, std::exp(-sigma_t * n * voxel), 3.0 * e.standard_error);
     // Along index y = −0.5 (half a voxel outside the outermost centres): density 0.5 across.
     const Ray ramp{Vec3(-2.0f, -0.5f * voxel, 7.0f * voxel), Vec3(1.0f, 0.0f, 0.0f)};
-    const MeanEstimate r = estimate(40000, [&](int i) {
+    const MeanEstimate r = test::estimate_mean(40000, [&](int i) {
         Rng rng(17, i);
         return ratio_track(media, ramp, kInfinity, rng).x;
     });
@@ -244,10 +222,8 @@ TEST(RatioTracking, ConstantVdbCubeMatchesBeerLambertWithHalfVoxelRamp) {
 }
 
 TEST(Medium, EmptyGridIsVacuum) {
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_medium_empty.vdb";
-    write_float_grid(path.string(), "density", 4, 4, 4, [](int, int, int) { return 0.0f; });
-    const std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
+    const std::shared_ptr<const DensityGrid> grid =
+        test::density_grid(4, 4, 4, [](int, int, int) { return 0.0f; });
     const Medium m = Medium::heterogeneous({Color(1.0f), Color(0.0f), 0.0f}, grid, Mat4(1.0f));
     std::vector<Medium::Sampler> media = samplers({&m});
     Rng rng(1, 2);

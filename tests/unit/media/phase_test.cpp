@@ -6,6 +6,7 @@
 #include "media/phase.h"
 
 #include "media/medium.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
@@ -80,10 +81,7 @@ TEST(PhaseMix, SamplingFollowsTheMixtureAndReportsItsValue) {
         ++count[std::clamp(b, 0, kBins - 1)];
     }
     // Chi-square with 39 degrees of freedom: the 99.9% quantile is 72.1.
-    double chi2 = 0.0;
-    const double expected = double(kN) / kBins;
-    for (int c : count) chi2 += (c - expected) * (c - expected) / expected;
-    EXPECT_LT(chi2, 72.1);
+    EXPECT_LT(test::chi_square(count, double(kN) / kBins), 72.1);
 }
 
 }  // namespace

@@ -5,10 +5,10 @@
 #include "media/volume_gen.h"
 
 #include "media/density_grid.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -23,18 +23,10 @@ namespace fs = std::filesystem;
 
 class VolumeGenTest : public ::testing::Test {
 protected:
-    void SetUp() override {
-        openvdb::initialize();
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::path(::testing::TempDir()) /
-               ("fogmap_vg_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+    void SetUp() override { openvdb::initialize(); }
+    std::string path(const std::string& name) const { return (tmp_.path() / name).string(); }
 
-    fs::path dir_;
+    test::TempDir tmp_{"fogmap_vg"};
 };
 
 openvdb::FloatGrid::Ptr read_density(const std::string& path) {

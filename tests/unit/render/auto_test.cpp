@@ -1,7 +1,9 @@
 // auto's pilot (render/pilot.h) on scenes/smoke.json at 64x36: its predictions of the full
 // render's relMSE and work against the relMSE measured from full renders and the work they
-// count; its pick for thick and thin smoke; the same numbers for any thread count.
+// count; its pick for thick and thin smoke; its seeds' independence between render seeds; the
+// same numbers for any thread count.
 
+#include "render/metrics.h"
 #include "render/pilot.h"
 #include "render/pipeline.h"
 #include "scene/scene.h"
@@ -9,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -52,7 +55,7 @@ double pair_rel_mse(const std::vector<std::vector<Image>>& pairs, size_t which) 
                 for (const Image& im : p) y += im.pixels[i][c], n += 1.0;
             y /= n;
             const double d = double(a.pixels[i][c]) - b.pixels[i][c];
-            sum += 0.5 * d * d / (y * y + 0.01);
+            sum += relative_squared_error(0.5 * d * d, y);
         }
     return sum / (3.0 * a.pixels.size());
 }
@@ -145,6 +148,23 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     };
     EXPECT_FALSE(has_pilot_phase(few));
     EXPECT_TRUE(has_pilot_phase(more));
+}
+
+// Render seeds 2j and 2j + 1 (the pair the xor derivation gave the same pilot seeds, swapped),
+// for 500 j: each pair's two seeds differ, and no pilot seed is another seed's (brute force).
+TEST(Pilot, NeighbouringRenderSeedsGetDisjointPilotSeeds) {
+    for (uint64_t j = 0; j < 500; ++j) {
+        const uint64_t a[2] = {pilot_seed(2 * j, 0), pilot_seed(2 * j, 1)};
+        const uint64_t b[2] = {pilot_seed(2 * j + 1, 0), pilot_seed(2 * j + 1, 1)};
+        EXPECT_NE(a[0], a[1]) << j;
+        EXPECT_NE(b[0], b[1]) << j;
+        for (const uint64_t x : a)
+            for (const uint64_t y : b)
+                EXPECT_NE(x, y) << "render seeds " << 2 * j << ", " << 2 * j + 1;
+    }
+    std::set<uint64_t> seen;
+    for (uint64_t seed = 0; seed < 1000; ++seed)
+        for (const int k : {0, 1}) EXPECT_TRUE(seen.insert(pilot_seed(seed, k)).second) << seed;
 }
 
 TEST(Pilot, TheSameNumbersForAnyThreadCount) {

@@ -9,13 +9,12 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "media/henyey_greenstein.h"
-#include "media/volume_gen.h"
+#include "test_support.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,21 +24,17 @@ namespace {
 
 float ramp(float x, float y, float z) { return 0.1f + 0.2f * x + 0.1f * y + 0.05f * z; }
 
-// The ramp on 40³ voxels of 0.1, written to a VDB file named `name` and loaded.
-std::shared_ptr<const DensityGrid> load_ramp(const std::string& name) {
+// The ramp on 40³ voxels of 0.1.
+std::shared_ptr<const DensityGrid> load_ramp() {
     const int n = 40;
     const float voxel = 0.1f;
-    const auto path = std::filesystem::temp_directory_path() / name;
-    write_float_grid(
-        path.string(), "density", n, n, n,
-        [&](int i, int j, int k) { return ramp(i * voxel, j * voxel, k * voxel); }, Vec3(voxel));
-    std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
-    return grid;
+    return test::density_grid(
+        n, n, n, [&](int i, int j, int k) { return ramp(i * voxel, j * voxel, k * voxel); },
+        Vec3(voxel));
 }
 
 TEST(KernelDensity, AveragesALinearRampToItsValue) {
-    const std::shared_ptr<const DensityGrid> grid = load_ramp("fogmap_kernel_density_ramp.vdb");
+    const std::shared_ptr<const DensityGrid> grid = load_ramp();
     const Color sigma_s(2.0f, 1.0f, 0.5f);
     const std::vector<Medium> media{
         Medium::heterogeneous({sigma_s, Color(0.0f), 0.0f}, grid, Mat4(1.0f))};
@@ -73,7 +68,7 @@ TEST(KernelDensity, HomogeneousMediumIsItsSigmaSInsideAndZeroFarOutside) {
 // cost at most 0.002 here; the table one cell off would be 0.02 off), and a cube astride a
 // homogeneous medium's face holds σ_s over the part inside.
 TEST(SigmaTable, CubeAveragesMatchALinearRampAndAHalfFilledCube) {
-    const std::shared_ptr<const DensityGrid> grid = load_ramp("fogmap_sigma_table_ramp.vdb");
+    const std::shared_ptr<const DensityGrid> grid = load_ramp();
     const Color sigma_s(2.0f, 1.0f, 0.5f);
     const SigmaTable ramp_table(
         {Medium::heterogeneous({sigma_s, Color(0.0f), 0.0f}, grid, Mat4(1.0f))}, 0.5f);
@@ -266,12 +261,8 @@ TEST(VolumeMapEnd, ManyPhotonsInTheBallGatherWithinASmallerRadius) {
 TEST(VolumeMapEnd, TheEstimateIsTheLightAtTheBallsCentreWhereTheDensityVaries) {
     const int n = 40, count = 2000000;
     const float voxel = 0.1f;
-    const auto path = std::filesystem::temp_directory_path() / "fogmap_lean_ramp.vdb";
-    write_float_grid(
-        path.string(), "density", n, n, n, [&](int i, int, int) { return 0.05f + i * voxel; },
-        Vec3(voxel));
-    const std::shared_ptr<const DensityGrid> grid = DensityGrid::load(path.string(), "density", "");
-    std::filesystem::remove(path);
+    const std::shared_ptr<const DensityGrid> grid = test::density_grid(
+        n, n, n, [&](int i, int, int) { return 0.05f + i * voxel; }, Vec3(voxel));
     const std::vector<Medium> media{
         Medium::heterogeneous({Color(1.0f), Color(0.0f), 0.0f}, grid, Mat4(1.0f))};
     // Photons in [0.3, 3.7]³ with density ∝ (0.05 + x) x (rejection against its top, at 3.7).
@@ -337,9 +328,8 @@ PhotonMap uniform_photons(int count, float half, Rng& rng) {
 // the lookups of maps built afresh, whether that memory was larger (a smaller radius before: a
 // finer grid) or smaller, with the moments, the crowded lookups' counts and the kd-tree's.
 TEST(VolumeMapEnd, MapsBuiltInRecycledMemoryLookUpAsFreshOnes) {
-    const std::vector<Medium> media{
-        Medium::heterogeneous({Color(1.0f, 0.8f, 0.6f), Color(0.1f), 0.3f},
-                              load_ramp("fogmap_recycle_ramp.vdb"), Mat4(1.0f))};
+    const std::vector<Medium> media{Medium::heterogeneous(
+        {Color(1.0f, 0.8f, 0.6f), Color(0.1f), 0.3f}, load_ramp(), Mat4(1.0f))};
     Rng rng(29, 2);
     std::vector<Photon> photons;
     for (int i = 0; i < 60000; ++i)

@@ -1,0 +1,264 @@
+// The film (render/film.h) against values computed here: FixedFilm's mean over added films equals
+// the mean taken directly (exactly, for values on the fixed-point grid), its sums do not depend
+// on the order of the films, values beyond ±2^24 and sums beyond int64 are clamped and counted as
+// worked out by hand; a layered film has one image per layer in EXR order; and render_film's
+// pixels hold the mean over spp of the samples traced (dropped non-finite ones counting 0), the
+// beauty of a layered film being the sum of its layers, over the tiles of its share alone.
+
+#include "render/film.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+/// A w x h film whose every value is f(image, pixel, channel); image 0 is the beauty.
+template <class F>
+Film film_of(int w, int h, bool layered, F&& f) {
+    Film film(w, h, layered);
+    auto fill = [&](Image& img, int index) {
+        for (size_t p = 0; p < img.pixels.size(); ++p)
+            for (int c = 0; c < 3; ++c) img.pixels[p][c] = f(index, int(p), c);
+    };
+    fill(film.beauty, 0);
+    for (size_t l = 0; l < film.layers.size(); ++l) fill(film.layers[l], int(l) + 1);
+    return film;
+}
+
+TEST(Film, LayeredFilmHasOneImagePerLayerInExrOrder) {
+    const Film film(5, 3, true);
+    ASSERT_TRUE(film.layered());
+    ASSERT_EQ(film.layers.size(), size_t(kLayerCount));
+    EXPECT_EQ(film.beauty.width, 5);
+    EXPECT_EQ(film.beauty.height, 3);
+    for (const Image& img : film.layers) {
+        EXPECT_EQ(img.width, 5);
+        EXPECT_EQ(img.height, 3);
+        EXPECT_EQ(img.pixels.size(), 15u);
+    }
+    const std::vector<NamedImage> named = film.named_layers();
+    const char* expected[] = {"direct",  "volume_single", "volume_multiple",
+                              "caustic", "indirect",      "emission"};
+    ASSERT_EQ(named.size(), 6u);
+    for (int l = 0; l < 6; ++l) {
+        EXPECT_EQ(named[l].name, expected[l]);
+        EXPECT_EQ(named[l].image, &film.layers[l]);
+    }
+    EXPECT_EQ(&film.layer(Layer::Emission), &film.layers[5]);
+    EXPECT_EQ(&film.layer(Layer::Direct), &film.layers[0]);
+
+    const Film plain(4, 2, false);
+    EXPECT_FALSE(plain.layered());
+    EXPECT_TRUE(plain.named_layers().empty());
+    EXPECT_EQ(plain.beauty.pixels.size(), 8u);
+}
+
+TEST(FilmSample, LayerSumAddsEveryLayer) {
+    FilmSample s;
+    for (int l = 0; l < kLayerCount; ++l) s.layers[l] = Color(1.0f * (l + 1), 0.5f, -0.25f * l);
+    s[Layer::Caustic] += Color(10.0f);
+    // 1 + ... + 6 = 21, plus 10; 6 × 0.5 + 10; −0.25 × 15 + 10.
+    EXPECT_EQ(s.layer_sum(), Color(31.0f, 13.0f, 6.25f));
+}
+
+TEST(FixedFilm, MeanOfGridValuesIsTheExactMean) {
+    // Values k / 256 in [−64, 64]: on the 2^−32 grid, so the fixed-point sums are exact, and with
+    // 4 films the mean is exact as well.
+    const int w = 3, h = 2, count = 4;
+    std::vector<Film> films;
+    for (int f = 0; f < count; ++f)
+        films.push_back(film_of(w, h, true, [&](int img, int p, int c) {
+            return float(((img * 37 + p * 11 + c * 5 + f * 23) % 257 - 128)) / 2.0f +
+                   float(f) / 256.0f;
+        }));
+    FixedFilm sum;
+    for (const Film& f : films) sum.add(f);
+    EXPECT_EQ(sum.width, w);
+    EXPECT_EQ(sum.height, h);
+    EXPECT_TRUE(sum.layered);
+    EXPECT_EQ(sum.values.size(), size_t(3 * w * h * (1 + kLayerCount)));
+    EXPECT_EQ(sum.clamped, 0u);
+    const Film mean = sum.mean(count);
+    ASSERT_TRUE(mean.layered());
+    auto check = [&](const Image& got, auto&& image_of) {
+        for (size_t p = 0; p < got.pixels.size(); ++p)
+            for (int c = 0; c < 3; ++c) {
+                double direct = 0.0;
+                for (const Film& f : films) direct += image_of(f).pixels[p][c];
+                ASSERT_EQ(got.pixels[p][c], float(direct / count)) << "pixel " << p << " c " << c;
+            }
+    };
+    check(mean.beauty, [](const Film& f) -> const Image& { return f.beauty; });
+    for (int l = 0; l < kLayerCount; ++l)
+        check(mean.layers[l], [l](const Film& f) -> const Image& { return f.layers[l]; });
+}
+
+TEST(FixedFilm, MeanOfAnyValuesIsTheMeanToRounding) {
+    // Arbitrary floats are rounded to 2^−32 once each; the mean of 3 is then within that plus
+    // a float's rounding of the direct mean.
+    const int count = 3;
+    std::vector<Film> films;
+    for (int f = 0; f < count; ++f)
+        films.push_back(film_of(4, 4, false, [&](int, int p, int c) {
+            return std::sin(0.37f * float(p * 3 + c) + float(f)) * 1000.0f + 0.1f * float(f);
+        }));
+    FixedFilm sum;
+    for (const Film& f : films) sum.add(f);
+    const Film mean = sum.mean(count);
+    EXPECT_FALSE(mean.layered());
+    for (size_t p = 0; p < mean.beauty.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            double direct = 0.0;
+            for (const Film& f : films) direct += f.beauty.pixels[p][c];
+            direct /= count;
+            EXPECT_NEAR(mean.beauty.pixels[p][c], direct,
+                        std::abs(direct) * std::numeric_limits<float>::epsilon() + 1e-9);
+        }
+}
+
+TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
+    // Floats that a float sum would round differently in another order.
+    std::vector<Film> films;
+    for (int f = 0; f < 5; ++f)
+        films.push_back(film_of(3, 3, true, [&](int img, int p, int c) {
+            return std::pow(10.0f, float((img + p + c + 2 * f) % 9) - 4.0f) *
+                   (f % 2 ? -1.3f : 1.7f);
+        }));
+    std::vector<int> order{0, 1, 2, 3, 4};
+    FixedFilm reference;
+    for (int i : order) reference.add(films[i]);
+    int permutations = 0;
+    while (std::next_permutation(order.begin(), order.end())) {
+        FixedFilm sum;
+        for (int i : order) sum.add(films[i]);
+        ASSERT_EQ(sum.values, reference.values);
+        ++permutations;
+    }
+    EXPECT_EQ(permutations, 119);
+}
+
+TEST(FixedFilm, ValuesBeyondTwoToThe24AreClampedAndCounted) {
+    constexpr float kMax = 16777216.0f;  // 2^24
+    Film film(2, 1, false);
+    film.beauty.at(0, 0) = Color(kMax, -kMax, 3.0f);  // at the limit: kept
+    film.beauty.at(1, 0) = Color(2.0f * kMax, -std::numeric_limits<float>::infinity(), 1e30f);
+    FixedFilm sum;
+    sum.add(film);
+    EXPECT_EQ(sum.clamped, 3u);
+    const Film mean = sum.mean(1);
+    EXPECT_EQ(mean.beauty.at(0, 0), Color(kMax, -kMax, 3.0f));
+    EXPECT_EQ(mean.beauty.at(1, 0), Color(kMax, -kMax, kMax));
+}
+
+TEST(FixedFilm, SumsThatWouldOverflowSaturateAndAreCounted) {
+    // 2^24 is 2^56 in fixed point; int64 holds 127 of them (127 × 2^56 < 2^63 − 1), the 128th
+    // overflows, and so does every addition after it: 3 of 130 films. −2^24: −128 × 2^56 = −2^63
+    // is INT64_MIN and fits, the 129th and 130th overflow: 2. The third channel never does.
+    Film film(1, 1, false);
+    film.beauty.at(0, 0) = Color(16777216.0f, -16777216.0f, 1.0f);
+    FixedFilm sum;
+    for (int i = 0; i < 130; ++i) sum.add(film);
+    EXPECT_EQ(sum.clamped, 5u);
+    EXPECT_EQ(sum.values[0], INT64_MAX);
+    EXPECT_EQ(sum.values[1], INT64_MIN);
+    EXPECT_EQ(sum.values[2], int64_t(130) << 32);
+}
+
+// render_film with a made-up integrator: sample s of pixel (x, y) gives layer l the radiance
+// (l + 1, x, y + s) / 8, beauty (unlayered) (x, y, s); one sample is NaN.
+struct State {
+    uint64_t rays = 0, capped = 0, lookups = 0, gathered = 0;
+    struct FakeMedium {
+        uint64_t steps() const { return 5; }
+    };
+    std::vector<FakeMedium> media{FakeMedium{}, FakeMedium{}};
+};
+
+constexpr int kW = 20, kH = 18, kSpp = 4;  // 2 x 2 tiles of 16, the right and bottom ones cut
+
+CameraDesc camera_desc() {
+    CameraDesc d;
+    d.width = kW;
+    d.height = kH;
+    return d;
+}
+
+Film render_made_up(bool layered, TileShare share, RenderStats* stats) {
+    return render_film(
+        Camera(camera_desc()), kSpp, 99, share, layered, true, stats, [] { return State{}; },
+        [&](const Ray&, Rng&, State& state, const PixelSample& ps) {
+            ++state.rays;
+            state.lookups += 2;
+            FilmSample f;
+            const float x = float(ps.x), y = float(ps.y), s = float(ps.s);
+            for (int l = 0; l < kLayerCount; ++l) f.layers[l] = Color(l + 1.0f, x, y + s) / 8.0f;
+            f.beauty = Color(x, y, s);
+            if (ps.x == 17 && ps.y == 3 && ps.s == 2) {
+                f.layers[4].y = std::numeric_limits<float>::quiet_NaN();
+                f.beauty.z = std::numeric_limits<float>::infinity();
+            }
+            return f;
+        });
+}
+
+TEST(RenderFilm, PixelsHoldTheMeanOverSppAndLayersAddUpToTheBeauty) {
+    RenderStats stats;
+    const Film film = render_made_up(true, TileShare{}, &stats);
+    ASSERT_TRUE(film.layered());
+    for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x) {
+            const bool dropped = x == 17 && y == 3;  // sample 2 dropped: mean of s = 0, 1, 3
+            const double kept = dropped ? 3.0 : kSpp;
+            const double s_sum = dropped ? 0.0 + 1.0 + 3.0 : 0.0 + 1.0 + 2.0 + 3.0;
+            Color sum(0.0f);
+            for (int l = 0; l < kLayerCount; ++l) {
+                const Color want(float((l + 1) * kept / 8.0 / kSpp), float(x * kept / 8.0 / kSpp),
+                                 float((y * kept + s_sum) / 8.0 / kSpp));
+                const Color got = film.layers[l].at(x, y);
+                for (int c = 0; c < 3; ++c)
+                    ASSERT_NEAR(got[c], want[c], 1e-6f * (1.0f + want[c]))
+                        << "layer " << l << " pixel " << x << "," << y;
+                sum += got;
+            }
+            for (int c = 0; c < 3; ++c)
+                ASSERT_NEAR(film.beauty.at(x, y)[c], sum[c], 1e-5f * (1.0f + sum[c]))
+                    << "pixel " << x << "," << y;
+        }
+    EXPECT_EQ(stats.samples, uint64_t(kW * kH * kSpp));
+    EXPECT_EQ(stats.rays, uint64_t(kW * kH * kSpp));
+    EXPECT_EQ(stats.lookups, uint64_t(2 * kW * kH * kSpp));
+    EXPECT_EQ(stats.nonfinite, 1u);
+    EXPECT_EQ(stats.steps, 4u * 2u * 5u);  // 4 tiles, 2 media of 5 steps each
+}
+
+TEST(RenderFilm, UnlayeredFilmHoldsTheBeautyMeanOverItsShareOfTiles) {
+    // Share 1 of 2: tiles 1 and 3, the right column x in [16, 20); the rest stays 0.
+    RenderStats stats;
+    const Film film = render_made_up(false, TileShare{1, 2}, &stats);
+    EXPECT_FALSE(film.layered());
+    for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x) {
+            Color want(0.0f);
+            if (x >= 16) {
+                const bool dropped = x == 17 && y == 3;
+                const double kept = dropped ? 3.0 : kSpp;
+                want = Color(float(x * kept / kSpp), float(y * kept / kSpp),
+                             float((dropped ? 4.0 : 6.0) / kSpp));
+            }
+            for (int c = 0; c < 3; ++c)
+                ASSERT_NEAR(film.beauty.at(x, y)[c], want[c], 1e-6f * (1.0f + want[c]))
+                    << "pixel " << x << "," << y;
+        }
+    EXPECT_EQ(stats.samples, uint64_t(4 * kH * kSpp));
+    EXPECT_EQ(stats.nonfinite, 1u);
+    EXPECT_EQ(stats.steps, 2u * 2u * 5u);
+}
+
+}  // namespace
+}  // namespace fogmap
