@@ -22,13 +22,16 @@
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -201,9 +204,17 @@ SceneDesc frame_desc(SceneDesc desc, int frame) {
     return desc;
 }
 
-}  // namespace
+/// What `fogmap render` checked before any work: outputs, reference, the scene's keys.
+struct RenderJob {
+    std::string exr, png;
+    std::optional<FrameRange> range;
+    Image reference;
+    SceneDesc desc;
+};
 
-int run_render(const RenderArgs& args) {
+/// The render's checks before any work, in order: options and outputs first, then the reference,
+/// then the scene. Throws InputError.
+RenderJob prepare_render(const RenderArgs& args) {
     const bool sequence = !args.frames.empty();
     std::string exr = args.output;
     if (exr.empty())
@@ -290,6 +301,80 @@ int run_render(const RenderArgs& args) {
                                  "' holds a frame pattern; expected --frames FIRST-LAST to "
                                  "render its frames");
 
+    return RenderJob{exr, png, range, std::move(reference), desc};
+}
+
+/// A digest of a file's size and contents at 16 places (64 KB each): ranks on other machines
+/// read copies of it, whose modification times differ.
+std::string file_digest(const std::string& path) {
+    std::error_code ec;
+    const uint64_t size = fs::file_size(path, ec);
+    std::ifstream in(path, std::ios::binary);
+    std::string sample(64 * 1024, '\0'), all = std::to_string(size) + ":";
+    for (int k = 0; k < 16 && in && size > 0; ++k) {
+        in.seekg(std::streamoff(size / 16 * uint64_t(k)));
+        in.read(sample.data(), std::streamsize(sample.size()));
+        all += std::to_string(fnv1a(sample.substr(0, size_t(in.gcount())))) + ",";
+        in.clear();
+    }
+    return all;
+}
+
+/// Every rank must run the same render: its settings (the scene's keys after --set), options and
+/// outputs, and the input files behind the scene's paths, compared by digest where every rank has
+/// them all (a file missing on some machine is left to the load, which names it and the rank).
+/// Collective; throws the same InputError on every rank when one differs from rank 0.
+void agree_on_job(const RenderArgs& args, const RenderJob& job) {
+    if (!args.ranks || args.ranks->size() == 1) return;
+    const std::string settings = to_json(job.desc).dump() + "\n" + job.exr + "\n" + job.png + "\n" +
+                                 args.frames + (args.resume ? " resume " : " ") +
+                                 std::to_string(args.checkpoint_every);
+    const SceneDesc first = job.range ? frame_desc(job.desc, job.range->first) : job.desc;
+    std::string files;
+    bool complete = true;
+    const auto digest = [&](const std::string& file) {
+        const std::string path = resolve(first, file);
+        std::error_code ec;
+        complete = complete && fs::is_regular_file(path, ec);
+        files += "\n" + file_digest(path);
+    };
+    for (const MediumDesc& m : first.media)
+        if (m.type == MediumType::Vdb) digest(m.file);
+    for (const ShapeDesc& sh : first.shapes)
+        if (sh.type == ShapeType::Mesh) digest(sh.file);
+    const uint64_t mine[2] = {fnv1a(settings), fnv1a(files)};
+    std::vector<uint8_t> bytes(17);
+    std::memcpy(bytes.data(), mine, 16);
+    bytes[16] = complete ? 1 : 0;
+    const std::vector<std::vector<uint8_t>> all = args.ranks->all_gather(bytes);
+    bool all_complete = true;
+    for (const auto& b : all) all_complete = all_complete && b[16] == 1;
+    for (size_t r = 1; r < all.size(); ++r) {
+        const bool same_settings = std::equal(all[r].begin(), all[r].begin() + 8, all[0].begin());
+        const bool same_files =
+            std::equal(all[r].begin() + 8, all[r].begin() + 16, all[0].begin() + 8);
+        if (!same_settings || (all_complete && !same_files))
+            throw InputError("", "mpirun",
+                             "MPI rank " + std::to_string(r) +
+                                 " was given another render than rank 0 (its " +
+                                 (same_settings ? "input files"
+                                                : "scene, --set values, options "
+                                                  "or outputs") +
+                                 " differ); every rank must run the same one");
+    }
+}
+
+}  // namespace
+
+int run_render(const RenderArgs& args) {
+    RenderJob job;
+    agree_on_input(args.ranks, [&] { job = prepare_render(args); });
+    agree_on_job(args, job);
+    const std::string &exr = job.exr, &png = job.png;
+    const std::optional<FrameRange>& range = job.range;
+    const Image& reference = job.reference;
+    const SceneDesc& desc = job.desc;
+    const bool sequence = !args.frames.empty();
     if (!sequence) {
         const Report report =
             render_and_write(args, desc, exr, png, args.reference.empty() ? nullptr : &reference);
@@ -410,6 +495,16 @@ int run_info(const std::string& vdb_path, bool json) {
         if (g.scalar) std::cout << "    values " << g.min_value << " .. " << g.max_value << "\n";
     }
     return 0;
+}
+
+CLI::Validator seed_check() {
+    return CLI::Validator(
+        [](std::string& text) {
+            const bool digits =
+                !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+            return digits ? std::string() : "found '" + text + "'; expected a non-negative integer";
+        },
+        "SEED");
 }
 
 int run_volume(const VolumeArgs& args) {

@@ -10,6 +10,7 @@
 
 namespace CLI {
 class App;
+class Validator;
 }
 
 namespace fogmap {
@@ -71,6 +72,8 @@ struct Subcommand {
 
 /// `fogmap validate slab ...` (app/validate_command.cpp).
 Subcommand add_validate_command(CLI::App& app);
+/// A seed option's check: digits alone (an unsigned option would read "-1" as 2^64 - 1).
+CLI::Validator seed_check();
 /// `fogmap bench SCENE ...` (app/bench_command.cpp).
 Subcommand add_bench_command(CLI::App& app);
 

@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
     vol->add_option("-o,--output", volume.output, "output .vdb")->required();
     vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
-    vol->add_option("--seed", volume.seed, "noise seed");
+    vol->add_option("--seed", volume.seed, "noise seed")->check(seed_check());
     vol->add_option("--frames", volume.frames,
                     "FIRST-LAST[:STEP]: a time-varying sequence; -o holds a frame pattern (####)");
 

@@ -13,6 +13,18 @@ namespace fogmap {
 
 namespace {
 
+/// Values per reduce: 2^24, or FOGMAP_MPI_CHUNK (1 .. 2^24) where set, so that tests make small
+/// films span many chunks.
+size_t reduce_chunk() {
+    constexpr size_t kChunk = size_t(1) << 24;
+    static const size_t chunk = [] {
+        const char* env = std::getenv("FOGMAP_MPI_CHUNK");
+        const long long v = env ? std::atoll(env) : 0;
+        return v >= 1 && v <= static_cast<long long>(kChunk) ? static_cast<size_t>(v) : kChunk;
+    }();
+    return chunk;
+}
+
 class MpiRanks final : public Ranks {
 public:
     /// The world (finalised with it), or a communicator split from it (freed with it).
@@ -35,10 +47,10 @@ public:
     int size() const override { return size_; }
     // In chunks: MPI counts are ints, and a 1920x1080 film with its layers is 44 million values.
     void sum_to_root(std::vector<int64_t>* values) override {
-        constexpr size_t kChunk = size_t(1) << 24;
+        const size_t chunk = reduce_chunk();
         std::vector<int64_t> out(rank_ == 0 ? values->size() : 0);
-        for (size_t at = 0; at < values->size(); at += kChunk) {
-            const int n = static_cast<int>(std::min(kChunk, values->size() - at));
+        for (size_t at = 0; at < values->size(); at += chunk) {
+            const int n = static_cast<int>(std::min(chunk, values->size() - at));
             MPI_Reduce(values->data() + at, rank_ == 0 ? out.data() + at : nullptr, n, MPI_INT64_T,
                        MPI_SUM, 0, comm_);
         }

@@ -102,7 +102,7 @@ std::string free_paths(const SlabSettings& s, const SlabResult& r) {
 /// Exit code: 1 (with the figure on stderr) when --max-bounces cut more than 0.1% of the power,
 /// which biases Rd and Tt low by about that much; else 0.
 int capped_check(const SlabSettings& s, const SlabResult& r) {
-    if (r.bounce_cap_power <= 0.001) return 0;
+    if (r.bounce_cap_power <= kCapWarnShare) return 0;
     std::cout.flush();  // the report first, then the verdict
     std::fprintf(stderr,
                  "fogmap: error: --max-bounces %d cut %llu photon paths carrying %s%% of the power "
@@ -188,7 +188,7 @@ Subcommand add_validate_command(CLI::App& app) {
     slab->add_option("--photons", args->photons, "photons traced, 1 .. 1e9 (default 1e5)");
     slab->add_option("--method", args->method, "free paths: march (default) or delta");
     slab->add_option("--step-voxels", args->step_voxels, "march step in voxels (default 1)");
-    slab->add_option("--seed", args->seed, "random seed (default 1)");
+    slab->add_option("--seed", args->seed, "random seed (default 1)")->check(seed_check());
     slab->add_option("--max-bounces", args->max_bounces,
                      "interactions per photon, a safety limit (default as the photon pass's "
                      "photons.max_bounces); more than 0.1% of the power cut exits 1");

@@ -12,6 +12,8 @@ namespace fogmap {
 
 /// Highest temperature fogmap accepts (kelvin); scene loading refuses hotter voxels.
 constexpr double kMaxKelvin = 1e5;
+/// The Draper point: below about this temperature a black body gives no visible glow.
+constexpr double kDraperKelvin = 798.0;
 
 /// Planck's spectral radiance B(λ, T) in W/(m²·sr·nm), λ in nm; 0 for T <= 0.
 double planck(double lambda_nm, double kelvin);

@@ -24,11 +24,15 @@ void put(std::string* out, const T& v) {
     out->append(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
+/// The film values of a checkpoint of `shape`'s run: 3 per pixel, per image.
+uint64_t expected_values(const CheckpointShape& shape) {
+    return 3 * uint64_t(shape.width) * uint64_t(shape.height) *
+           (shape.layered ? 1 + kLayerCount : 1);
+}
+
 /// The bytes of a checkpoint of `shape`'s run.
 uint64_t expected_bytes(const CheckpointShape& shape) {
-    const uint64_t values =
-        3 * uint64_t(shape.width) * uint64_t(shape.height) * (shape.layered ? 1 + kLayerCount : 1);
-    return std::strlen(kMagic) + 8 * (kFields + kRunCounts + 1 + values + 1);
+    return std::strlen(kMagic) + 8 * (kFields + kRunCounts + 1 + expected_values(shape) + 1);
 }
 
 [[noreturn]] void fail(const std::string& path, const char* field, const std::string& why) {
@@ -95,7 +99,8 @@ Checkpoint parse(const std::string& path, const std::string& bytes, const Checkp
         if (v < 0) fail(path, "counts", "a negative count, " + std::to_string(v));
     }
     expect(path, "counts", c.counts[0], iterations, "iteration count (the checkpoint's own)");
-    const int64_t values = f.next();  // its size was checked with the file's
+    const int64_t values = f.next();
+    expect(path, "values", values, int64_t(expected_values(shape)), "film's number of values");
     c.iterations = int(iterations);
     c.sum.width = shape.width;
     c.sum.height = shape.height;

@@ -39,9 +39,9 @@ std::string checkpoint_bytes(const Checkpoint& c);
 
 /// Reads the checkpoint at `path` for a run of `shape`. Throws InputError{path, FIELD, reason}
 /// (FIELD names the checkpoint's field: format, size, fingerprint, checksum, iterations, width,
-/// height, layers, counts) when the file is unreadable, a folder, not a checkpoint, of another
-/// size than such a run's, written for another scene, settings or input files, corrupt, or its
-/// fields disagree with the run or each other. Reads at most the size such a run's has.
+/// height, layers, counts, values) when the file is unreadable, a folder, not a checkpoint, of
+/// another size than such a run's, written for another scene, settings or input files, corrupt, or
+/// its fields disagree with the run or each other. Reads at most the size such a run's has.
 Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape);
 
 }  // namespace fogmap

@@ -128,6 +128,23 @@ std::string find_emission_grid(const std::vector<std::string>& names) {
     return "";
 }
 
+/// A medium emits at most kMaxLightPower, as a light may: its power is estimated from the grid's
+/// values and the emission mapping when it is attached, so a scale that would overflow the image
+/// is refused at load, naming the power it would give.
+void check_emitted_power(const SceneDesc& desc, size_t i, const Medium& medium) {
+    const double power = medium.emitted_power();
+    if (std::isfinite(medium.emission_bound_power()) && std::isfinite(power) &&
+        power <= kMaxLightPower)
+        return;
+    char text[300];
+    std::snprintf(text, sizeof text,
+                  "the medium would emit %s (from its grid's values and emission.scale %g); "
+                  "expected at most %g W, as a light may: lower emission.scale",
+                  std::isfinite(power) ? (g_text(power) + " W").c_str() : "more than a float holds",
+                  double(desc.media[i].emission->scale), kMaxLightPower);
+    throw InputError(desc.path, "/media/" + std::to_string(i) + "/emission/scale", text);
+}
+
 /// Makes scene medium `medium` (desc medium i, its VDB file at `path`; "" for a homogeneous one)
 /// emit as desc says: the grid named, else one of kEmissionGridNames found in the file, else a
 /// constant. Returns the Plan's line for it (without the power); a grid it loads adds its
@@ -158,6 +175,7 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
     const std::string name = "medium " + std::to_string(i) + ": ";
     if (grid.empty()) {
         medium->set_emission(Emission::constant(p), Mat4(1.0f));
+        check_emitted_power(desc, i, *medium);
         return name + "constant";
     }
     p.kind = e.kind == EmissionSource::Blackbody ? EmissionKind::Blackbody
@@ -177,7 +195,23 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
                       double(e.temperature_scale), double(e.temperature_offset), kMaxKelvin);
         throw InputError(desc.path, field, text);
     }
+    if (p.kind == EmissionKind::Blackbody && emission.max_kelvin() < kDraperKelvin) {
+        // A grid that is not in kelvin (a 0-1 heat ramp, say) glows in no visible colour.
+        const double top = double(g->max_density());
+        char text[400];
+        std::snprintf(text, sizeof text,
+                      "medium %zu: blackbody from grid '%s' reaches only %.3g K (its values up "
+                      "to %g x temperature_scale %g + temperature_offset %g), below the %g K "
+                      "where a black body starts to glow: it renders nearly black. If the grid "
+                      "is not in kelvin, map it, e.g. temperature_scale %.3g puts its maximum at "
+                      "2000 K, or use kind \"scalar\"",
+                      i, grid.c_str(), emission.max_kelvin(), top, double(e.temperature_scale),
+                      double(e.temperature_offset), kDraperKelvin,
+                      top > 0.0 ? (2000.0 - double(e.temperature_offset)) / top : 1.0);
+        warnings->push_back(text);
+    }
     medium->set_emission(std::move(emission), m.transform.matrix);
+    check_emitted_power(desc, i, *medium);
     return name + (p.kind == EmissionKind::Blackbody ? "blackbody" : "scalar") + " from grid '" +
            grid + "'" + (found ? " (found in the file)" : "");
 }

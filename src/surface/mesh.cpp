@@ -53,8 +53,29 @@ std::string read_file(const std::string& path, const std::string& field) {
 
 // ---- OBJ ---------------------------------------------------------------------------------------
 
+/// tinyobjloader reads the words nan and inf in a vertex as 0 or a huge finite number: a vertex
+/// line holding one is refused here instead of silently moved.
+void check_obj_numbers(const std::string& text, const std::string& path, const std::string& field) {
+    size_t line = 1, vertex = 0;
+    for (size_t at = 0; at < text.size(); ++line) {
+        const size_t end = std::min(text.find('\n', at), text.size());
+        if (text.compare(at, 2, "v ") == 0 || text.compare(at, 2, "v\t") == 0) {
+            ++vertex;
+            std::string l = text.substr(at, end - at);
+            for (char& c : l) c = char(std::tolower(static_cast<unsigned char>(c)));
+            if (l.find("nan") != std::string::npos || l.find("inf") != std::string::npos)
+                throw InputError(path, field,
+                                 "vertex " + std::to_string(vertex) + " (line " +
+                                     std::to_string(line) +
+                                     ") has a non-finite coordinate; expected finite numbers");
+        }
+        at = end + 1;
+    }
+}
+
 Mesh load_obj(const std::string& path, const std::string& field) {
     const std::string text = read_file(path, field);
+    check_obj_numbers(text, path, field);
     tinyobj::ObjReaderConfig config;
     config.triangulate = false;  // fan-triangulated below, the same rule as PLY
     config.vertex_color = false;
@@ -68,6 +89,11 @@ Mesh load_obj(const std::string& path, const std::string& field) {
     const auto& v = reader.GetAttrib().vertices;
     for (size_t i = 0; i + 2 < v.size(); i += 3) {
         mesh.positions.emplace_back(float(v[i]), float(v[i + 1]), float(v[i + 2]));
+        const Vec3& p = mesh.positions.back();
+        if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+            throw InputError(path, field,
+                             "vertex " + std::to_string(i / 3 + 1) +
+                                 " has a non-finite coordinate (NaN, infinite, or beyond a float)");
     }
     std::vector<uint32_t> polygon;
     for (const auto& shape : reader.GetShapes()) {

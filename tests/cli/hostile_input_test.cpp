@@ -603,6 +603,142 @@ TEST_F(HostileInput, VdbProbeChildDiesWithItsParent) {
         << "the probe child " << child << " still runs (state " << state << ")";
 }
 
+// The probe child is limited by CPU time, never by wall time: a valid file whose probe is held
+// up (here: stopped for longer than its whole CPU budget, as on a node that gives it a sliver of
+// a core) passes; a file OpenVDB loops on is refused once the child has used its CPU seconds.
+// FOGMAP_PROBE_CPU_SECONDS=1 makes the budget 2 s for these small files (media/vdb_probe.cpp).
+TEST_F(HostileInput, VdbProbeIsLimitedByCpuTimeNotWallTime) {
+    setenv("FOGMAP_PROBE_CPU_SECONDS", "1", 1);
+    const size_t tiles = plume_transform_offset() + 15 * 8 + 4 + 4;
+    spit(path("slow.vdb"), plume_flipped(tiles + 3, 0x40));
+    RunResult r = run("render -q " + vdb_scene(path("slow.vdb")) + " -o " + path("o.exr"));
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("did not finish it within 2 CPU-seconds"), std::string::npos) << r.err;
+    // A valid plume large enough that its probe is caught running, stopped 3 s, then let go.
+    ASSERT_EQ(run("volume plume --resolution 160 -o " + path("big.vdb")).code, 0);
+    bool caught = false;
+    for (int attempt = 0; attempt < 5 && !caught; ++attempt) {
+        const pid_t parent = spawn_fogmap(
+            {"render", "-q", vdb_scene(path("big.vdb")), "--spp", "1", "-o", path("big.exr")},
+            dir_);
+        pid_t child = 0;
+        for (int i = 0; i < 20000 && child == 0; ++i) {
+            child = find_child(parent, "__probe-vdb");
+            if (child == 0) std::this_thread::sleep_for(std::chrono::microseconds(200));
+        }
+        char state = 'R';
+        pid_t ppid = 0;
+        if (child != 0 && kill(child, SIGSTOP) == 0) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+            caught = proc_state(child, &state, &ppid) && state == 'T';  // stopped, not exited
+            std::this_thread::sleep_for(std::chrono::seconds(3));
+            kill(child, SIGCONT);
+        }
+        int status = 0;
+        ASSERT_EQ(waitpid(parent, &status, 0), parent);
+        if (caught)
+            EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+                << slurp(dir_ / "bg_stderr.txt");
+    }
+    unsetenv("FOGMAP_PROBE_CPU_SECONDS");
+    EXPECT_TRUE(caught) << "the probe child was never seen running";
+}
+
+// A medium emits at most what a light may (10^20 W): a larger emission.scale is refused at load
+// with the power it would give, for every integrator, before any sample; a bright but bounded
+// one renders finite pixels.
+TEST_F(HostileInput, EmissionBeyondALightsPowerIsRefusedAtLoad) {
+    const std::string fire = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fire.json";
+    const std::string small = " --set camera.width=24 --set camera.height=14 --spp 2 -o ";
+    for (const char* integrator : {"photon", "path"}) {
+        for (const char* scale : {"1e20", "3e38"}) {
+            SCOPED_TRACE(std::string(integrator) + " " + scale);
+            const RunResult r = run("render -q " + fire + small + path("f.exr") +
+                                    " --set media.0.emission.scale=" + scale +
+                                    " --set render.integrator=\"" + integrator + "\"");
+            EXPECT_EQ(r.code, 2) << r.err;
+            EXPECT_NE(r.err.find("/media/0/emission/scale: the medium would emit"),
+                      std::string::npos)
+                << r.err;
+            EXPECT_FALSE(fs::exists(path("f.exr")));
+        }
+        const RunResult ok = run("render -q " + fire + small + path("f.exr") +
+                                 " --set media.0.emission.scale=1e15 --set render.integrator=\"" +
+                                 integrator + "\"");
+        ASSERT_EQ(ok.code, 0) << ok.err;
+        for (const Color& c : read_exr(path("f.exr")).pixels)
+            ASSERT_TRUE(std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z));
+        fs::remove(path("f.exr"));
+    }
+}
+
+// A blackbody on a grid that is not in kelvin glows in no visible colour: the warning names the
+// grid, the temperature it reaches (its maximum, read here with OpenVDB, × the scale) and a scale
+// that maps the maximum to 2000 K.
+TEST_F(HostileInput, BlackbodyOnAGridNotInKelvinIsNamedWithAMapping) {
+    const std::string fireball = std::string(FOGMAP_SOURCE_DIR) + "/volumes/fireball.vdb";
+    openvdb::initialize();
+    openvdb::io::File file(fireball);
+    file.open();
+    const auto grid = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("temperature"));
+    file.close();
+    float lo = 0.0f, hi = 0.0f;
+    grid->evalMinMax(lo, hi);
+    for (const double scale : {0.1, 1.0}) {
+        SCOPED_TRACE(scale);
+        nlohmann::json doc = nlohmann::json::parse(R"({
+          "camera": {"position": [0, 1, 5], "look_at": [0, 1, 0], "width": 12, "height": 8},
+          "media": [{"type": "vdb", "sigma_s": 1, "sigma_a": 1,
+                     "emission": {"grid": "temperature", "kind": "blackbody"}}],
+          "render": {"spp": 1, "integrator": "path"}})");
+        doc["media"][0]["file"] = fireball;
+        doc["media"][0]["emission"]["temperature_scale"] = scale;
+        const RunResult r =
+            run("render -q " + tmp_.write("bb.json", doc.dump()) + " -o " + path("bb.exr"));
+        ASSERT_EQ(r.code, 0) << r.err;
+        const bool dark = hi * scale < 798.0;
+        char reaches[64], mapping[64];
+        std::snprintf(reaches, sizeof reaches, "reaches only %.3g K", hi * scale);
+        std::snprintf(mapping, sizeof mapping, "temperature_scale %.3g puts its maximum at 2000 K",
+                      2000.0 / hi);
+        EXPECT_EQ(r.err.find("blackbody from grid 'temperature' " + std::string(reaches)) !=
+                      std::string::npos,
+                  dark)
+            << r.err;
+        EXPECT_EQ(r.err.find(mapping) != std::string::npos, dark) << r.err;
+    }
+}
+
+// A negative seed is refused by every command that takes one (an unsigned option would read -1
+// as 2^64 - 1); an OBJ vertex of NaN or infinity (which the OBJ reader would read as 0 or as a
+// huge number) is refused naming the vertex.
+TEST_F(HostileInput, NegativeSeedsAndNonFiniteObjVerticesAreRefused) {
+    for (const std::string& cmd :
+         {"volume plume --resolution 8 -o " + path("x.vdb") + " --seed -1",
+          std::string("validate slab --tau 1 --albedo 0.5 --g 0 --photons 100 --seed -1")}) {
+        SCOPED_TRACE(cmd);
+        const RunResult r = run(cmd);
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find("--seed: found '-1'; expected a non-negative integer"),
+                  std::string::npos)
+            << r.err;
+    }
+    EXPECT_FALSE(fs::exists(path("x.vdb")));
+    for (const char* bad : {"nan", "-inf", "INF", "1e999"}) {
+        SCOPED_TRACE(bad);
+        spit(path("m.obj"), std::string("v 0 0 0\nv 1 0 0\nv 0 1 ") + bad + "\nf 1 2 3\n");
+        const std::string scene = tmp_.write("m.json", R"({
+          "camera": {"width": 8, "height": 6},
+          "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": 1}],
+          "materials": {"m": {"type": "diffuse"}},
+          "shapes": [{"type": "mesh", "file": "m.obj", "material": "m"}], "render": {"spp": 1}})");
+        const RunResult r = run("render -q " + scene + " -o " + path("m.exr"));
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find("m.obj: /shapes/0/file: vertex 3"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("non-finite coordinate"), std::string::npos) << r.err;
+    }
+}
+
 // ---- 5. Messages -------------------------------------------------------------------------------
 
 TEST_F(HostileInput, CorruptVdbMessagesAreFogmapReasonsNotLibraryText) {

@@ -125,6 +125,88 @@ TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
     }
 }
 
+// Films are reduced in chunks (MPI counts are ints); with FOGMAP_MPI_CHUNK the chunk is made
+// small and uneven against the film, so a 2- and 3-rank render of a layered film spans many
+// chunks and a short last one, and must still give one process's EXR bit for bit (plain renders
+// reduce the films' bits; progressive runs their fixed-point sums).
+TEST_F(Mpi, FilmsReducedInManyChunksGiveOneProcesssImage) {
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
+    for (const char* run_kind : {"--spp 2", "--iterations 3"}) {
+        const std::string args = "render -q " + scene +
+                                 " --set camera.width=40 --set camera.height=24 --set "
+                                 "photons.volume=8000 --set photons.global=3000 " +
+                                 run_kind + " -o ";
+        const test::RunResult plain = run(args + at("one.exr"), 0);
+        ASSERT_EQ(plain.code, 0) << plain.err;
+        for (int ranks : {2, 3}) {
+            SCOPED_TRACE(std::string(run_kind) + ", " + std::to_string(ranks) + " ranks");
+            const std::string exr = at("chunked" + std::to_string(ranks) + ".exr");
+            const test::RunResult r = test::run_fogmap(
+                args + exr, dir_,
+                "FOGMAP_MPI_CHUNK=997 mpirun --allow-run-as-root --oversubscribe --bind-to none "
+                "-x FOGMAP_MPI_CHUNK -np " +
+                    std::to_string(ranks) + " ");
+            ASSERT_EQ(r.code, 0) << r.err;
+            EXPECT_TRUE(test::slurp(exr) == test::slurp(at("one.exr")))
+                << "the EXR differs from one process's";
+        }
+    }
+}
+
+// Ranks that disagree at start-up end together with one error: a scene missing on rank 1 only
+// (named with its rank), other --iterations on rank 1, or another file behind the same relative
+// path (each rank in its own folder) — never a hang, never one image mixed from two renders.
+TEST_F(Mpi, RanksThatDisagreeAtStartUpEndTogetherWithOneError) {
+    ASSERT_EQ(test::run_fogmap("volume plume --resolution 12 -o " + at("a/p.vdb"), dir_).code, 0);
+    ASSERT_EQ(
+        test::run_fogmap("volume plume --resolution 12 --seed 2 -o " + at("b/p.vdb"), dir_).code,
+        0);
+    const std::string scene = R"({
+      "camera": {"position": [0, 1, 5], "look_at": [0, 1, 0], "width": 8, "height": 6},
+      "lights": [{"type": "point", "intensity": 20, "position": [0, 4, 2]}],
+      "media": [{"type": "vdb", "file": "p.vdb", "sigma_s": 5, "sigma_a": 0.5}],
+      "render": {"integrator": "photon", "spp": 2}, "photons": {"volume": 2000}})";
+    tmp_.write("a/s.json", scene);
+    tmp_.write("b/s.json", scene);
+    // Rank 1 runs its own command line (sh picks it by Open MPI's rank variable).
+    const auto per_rank = [&](const std::string& rank0, const std::string& rank1) {
+        const std::string script =
+            "if [ \"$OMPI_COMM_WORLD_RANK\" = 1 ]; then " + rank1 + "; else " + rank0 + "; fi";
+        tmp_.write("ranks.sh", script);
+        // run_fogmap appends the binary's path (the script ignores it) and the redirections.
+        return test::run_fogmap("", dir_,
+                                "timeout 120 mpirun --allow-run-as-root --oversubscribe "
+                                "--bind-to none -np 2 sh " +
+                                    at("ranks.sh") + " ");
+    };
+    const std::string fogmap = FOGMAP_BINARY;
+    const std::string render = fogmap + " render -q --progressive --iterations 2 ";
+    struct Case {
+        const char* what;
+        std::string rank0, rank1, error;
+    };
+    const Case cases[] = {
+        {"scene missing on rank 1", render + at("a/s.json") + " -o " + at("o1.exr"),
+         render + at("a/gone.json") + " -o " + at("o1.exr"), "(on MPI rank 1)"},
+        {"other iterations", render + at("a/s.json") + " -o " + at("o2.exr"),
+         fogmap + " render -q --progressive --iterations 3 " + at("a/s.json") + " -o " +
+             at("o2.exr"),
+         "MPI rank 1 was given another render than rank 0"},
+        {"another file behind the path",
+         "cd " + at("a") + " && " + render + "s.json -o " + at("o3.exr"),
+         "cd " + at("b") + " && " + render + "s.json -o " + at("o3.exr"),
+         "MPI rank 1 was given another render than rank 0"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.what);
+        const test::RunResult r = per_rank(c.rank0, c.rank1);
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find(c.error), std::string::npos) << r.err;
+        EXPECT_EQ(occurrences(r.err, "fogmap: error:"), 1u) << r.err;
+    }
+    EXPECT_FALSE(fs::exists(at("o1.exr")) || fs::exists(at("o2.exr")) || fs::exists(at("o3.exr")));
+}
+
 TEST_F(Mpi, ACrashedRankEndsTheJobAndLeavesNoOutput) {
     // Rank 1 of a 60 s run gets SIGSEGV once it is under way: the job must end (well before the
     // budget) with a failure, and rank 0 must leave neither the image nor a temp file behind.

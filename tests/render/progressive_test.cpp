@@ -134,5 +134,26 @@ TEST(Progressive, PlainRendersOfManySamplesRunAsIterations) {
                 (1.0f + alpha) / 2.0f, 1e-5f);
 }
 
+// Camera paths ending in the volume map gather about k photons where the ball holds many, k
+// shrinking with the ball's volume over progressive iterations: k_i = k_1 (r_i / r_1)^3 =
+// k_1 Π_{j<i} (j + α)/(j + 1) (Knaus and Zwicker's schedule), k_1 = twice volume.k's default for
+// cloud.json's g 0.85 (render/run_setup.h, volume_k). Recorded per iteration in the report.
+TEST(Progressive, TheAdaptiveRadiusGathersFewerPhotonsAsTheBallShrinks) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
+    const std::vector<std::string> o{
+        "camera.width=16",   "camera.height=9",          "render.spp=1",
+        "progressive.spp=1", "progressive.iterations=8", "photons.volume=2000"};
+    const Report r = run_pipeline(load_scene_desc(path, o), true).report;
+    ASSERT_EQ(r.iterations.size(), 8u);
+    const double alpha = 2.0 / 3.0;
+    double product = 1.0;
+    for (size_t i = 0; i < r.iterations.size(); ++i) {
+        SCOPED_TRACE("iteration " + std::to_string(i + 1));
+        if (i > 0) product *= (double(i) + alpha) / (double(i) + 1.0);
+        EXPECT_NEAR(r.iterations[i].volume_k, 2.0 * kDefaultVolumeK * product,
+                    1e-4 * 2.0 * kDefaultVolumeK);
+    }
+}
+
 }  // namespace
 }  // namespace fogmap
