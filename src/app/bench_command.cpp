@@ -1,7 +1,7 @@
 // `fogmap bench SCENE --sweep KEY=V1,V2,... --csv OUT.csv --plot OUT.svg`: renders the cross
 // product of the sweeps and the path tracer at a few sample counts, measures each against a
 // reference, writes one CSV row per run, an SVG plot of relMSE against time with the Pareto
-// frontier, and prints the frontier (DESIGN.md, Error against run time). Every setting is checked
+// frontier, and prints the frontier (docs/measurements.md). Every setting is checked
 // before the first render; the CSV and SVG appear together at the end (temp file + rename).
 
 #include "app/commands.h"

@@ -90,7 +90,7 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     // progressive runs, the running mean compared with it; the PNG's 8-bit RGB and its encoding.
     const double films = pixels * sizeof(Color) * layers * 2;
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) + pixels * 6;
-    // 20 bytes per photon with its kd-tree (README, Kd-trees); the beam estimate keeps 40 more
+    // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 40 more
     // per volume photon, photon beams about 200 (1.5 beams per photon measured on smoke.json,
     // each 28 bytes stored and one or more 44-byte pieces in their hierarchy).
     const PhotonSettings& p = setup.photons;

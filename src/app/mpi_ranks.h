@@ -1,5 +1,5 @@
 #pragma once
-// MPI for `mpirun -np N fogmap render ...` (README, "Rendering on many machines"): initialised only
+// MPI for `mpirun -np N fogmap render ...` (docs/distributed.md): initialised only
 // when the process was started by mpirun (Open MPI's environment), so a plain `fogmap` runs
 // exactly as without MPI. MPI's headers stay in mpi_ranks.cpp.
 

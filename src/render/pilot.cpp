@@ -20,7 +20,7 @@ namespace {
 
 // The cost of each counted event in medium steps: least-squares fits to the phase times of
 // single-threaded runs of the three candidates on smoke.json, smoke1 and the Disney cloud over
-// the ground at 16 and 64 spp (README, "Choosing an integrator"; 65 ns a render step), rounded.
+// the ground at 16 and 64 spp (docs/measurements.md; 65 ns a render step), rounded.
 // Renders: steps 1, Embree queries 0.93, lookups 2.2, gathered photons 1.1, within 8% of every
 // run's time; photon passes with their kd-tree: steps 0.91, interactions 6.7, within 11%; tables
 // 0.8-2.2 per node.

@@ -1,5 +1,5 @@
 #pragma once
-// auto's pilot for media under sun, sky or area lights (README, "Choosing an integrator"): each
+// auto's pilot for media under sun, sky or area lights (docs/design.md, Choosing an integrator): each
 // candidate integrator — photon with camera paths ending in the volume map, path, guided —
 // renders a share of the image's tiles with about 1/512 of the render's samples (at 4 spp and
 // from 8 tiles at least), twice with independent seeds; photon budgets and the volume map's

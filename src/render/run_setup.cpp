@@ -3,6 +3,8 @@
 #include "core/hash.h"
 #include "core/world_range.h"
 #include "media/phase.h"
+#include "render/sun_shadows.h"
+#include "render/volume_map_end.h"
 #include "scene/scene_desc_json.h"
 
 #include <nlohmann/json.hpp>

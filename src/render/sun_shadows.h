@@ -15,6 +15,11 @@
 
 namespace fogmap {
 
+/// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
+/// the grid sees the sun's disc as its centre direction, and a wider penumbra is not a voxel's
+/// blur.
+inline constexpr float kSunGridMaxRadiusDeg = 1.0f;
+
 /// Nodes of all grids' light-aligned boxes together; each grid grows its spacing to fit its
 /// share (and stores only the nodes on its medium's chords, fewer).
 inline constexpr size_t kSunGridMaxNodes = size_t(1) << 25;

@@ -22,6 +22,9 @@
 
 namespace fogmap {
 
+/// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
+inline constexpr int kLatestEndFactor = 4;
+
 /// σ_s averaged over a ball of radius r about any point, for every medium together: a dense grid
 /// over the media's bounds (grown by r) of the box average, over the equal-volume cube, of σ_s at
 /// the grid's points, interpolated trilinearly. Cells are a third of the cube's edge (so the
@@ -141,7 +144,7 @@ public:
 
     // FineEnough. A path ends at its D-th vertex only where σ̄_s r <= max_tau; elsewhere it
     // scatters on as in the path tracer and asks again at the next vertex, ending at vertex
-    // kLatestEndFactor · D (scene/scene_desc.h) in any case. Where σ̄_s r exceeds max_tau the
+    // kLatestEndFactor · D in any case. Where σ̄_s r exceeds max_tau the
     // smaller radius of AdaptiveRadius decides, from the grid's photon counts about the 8 points
     // kDecisionOffset r along each axis away from x (√3 r on average), which hold few of the
     // smaller ball's photons.

@@ -172,9 +172,9 @@ inline constexpr int kDefaultVolumeK = 50;
 enum class VolumeEstimator { Sphere, Beam, PhotonBeams };
 
 /// Volume map: the beam estimate with per-photon radii (the k-th neighbour's distance, at most
-/// `radius`), or the spherical estimate Σ p ΔΦ / ((4/3) π r³) (DESIGN.md, Radiance estimates). The
-/// beam is the default: the sphere blurs photons from inside a dense medium onto the camera's side
-/// of its edge, where the transmittance is higher (the bundled cloud: +15% in the medium).
+/// `radius`), or the spherical estimate Σ p ΔΦ / ((4/3) π r³) (docs/design.md, Radiance
+/// estimates). The beam is the default: the sphere blurs photons from inside a dense medium onto
+/// the camera's side of its edge, where the transmittance is higher (docs/measurements.md).
 struct VolumeGatherSettings {
     /// Photons per estimate; absent = by rule (render/run_setup.h, volume_k), kDefaultVolumeK
     /// where no rule applies.
@@ -206,13 +206,6 @@ struct VolumeGatherSettings {
     int k_or_default() const { return k.value_or(kDefaultVolumeK); }
 };
 
-/// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
-/// the grid sees the sun's disc as its centre direction, and a wider penumbra is not a voxel's
-/// blur.
-inline constexpr float kSunGridMaxRadiusDeg = 1.0f;
-
-/// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
-inline constexpr int kLatestEndFactor = 4;
 
 /// The most iterations a progressive run (or a plain render split into iterations) takes.
 inline constexpr int kMaxProgressiveIterations = 1000000;
