@@ -144,6 +144,8 @@ int run_slab_command(const SlabArgs& args) {
                             {"bounce_cap", r.bounce_cap},
                             {"bounce_cap_power", r.bounce_cap_power},
                             {"edge", r.edge},
+                            {"interactions", r.interactions},
+                            {"steps", r.steps},
                             {"time_s", r.time_s}};
         std::cout << j.dump(2) << "\n";
         return capped_check(s, r);
@@ -155,8 +157,8 @@ int run_slab_command(const SlabArgs& args) {
     };
     const std::string traced =
         r.tau_model != s.tau ? " (traced as " + number(r.tau_model) + ": semi-infinite)" : "";
-    std::cout << "slab: tau " << (semi ? "inf" : number(s.tau)) << traced
-              << ", albedo " << number(s.albedo) << ", g " << number(s.g)
+    std::cout << "slab: tau " << (semi ? "inf" : number(s.tau)) << traced << ", albedo "
+              << number(s.albedo) << ", g " << number(s.g)
               << ", index-matched (n = 1), collimated beam at normal incidence\n"
               << "free paths: " << free_paths(s, r) << " (" << s.voxels
               << " voxels across, optical depth " << number(r.tau_per_voxel) << " per voxel)\n"
@@ -168,6 +170,8 @@ int run_slab_command(const SlabArgs& args) {
               << ", bounce cap " << r.bounce_cap << " (" << number(100.0 * r.bounce_cap_power)
               << "% of the power lost)"
               << ", edge " << r.edge << "\n"
+              << "work: " << r.interactions << " interactions, " << r.steps << " medium steps ("
+              << number(double(r.steps) / double(s.photons)) << " per photon)\n"
               << "time " << number(r.time_s) << " s\n";
     return capped_check(s, r);
 }

@@ -50,6 +50,7 @@ struct Tally {
     double sum2[4] = {0.0, 0.0, 0.0, 0.0};  // squares of the three, and of down = [1] + [2]
     double capped_power = 0.0;              // power of the paths the bounce cap cut
     uint64_t absorbed = 0, bounce_cap = 0, edge = 0;
+    uint64_t interactions = 0, steps = 0;  // the work traced (SlabResult)
 
     void add(const Tally& o) {
         for (int i = 0; i < 3; ++i) sum[i] += o.sum[i];
@@ -58,10 +59,13 @@ struct Tally {
         absorbed += o.absorbed;
         bounce_cap += o.bounce_cap;
         edge += o.edge;
+        interactions += o.interactions;
+        steps += o.steps;
     }
 
     // Tallies a photon's path; `uniform_half`: the half width of the slab's uniform part.
     void record(const TracedPath& path, float uniform_half) {
+        interactions += static_cast<uint64_t>(path.interactions);
         if (path.interactions > 0 &&
             (std::abs(path.ray.o.x) > uniform_half || std::abs(path.ray.o.z) > uniform_half))
             ++edge;
@@ -148,6 +152,8 @@ Tally trace_beam(const SlabSettings& s, const Scene& scene, const PhotonTracer& 
                                                samplers, 0, nullptr),
                                   uniform_half);
             }
+        // Each sampler counts this range's steps alone; their sum does not depend on the split.
+        for (const Medium::Sampler& m : samplers) tallies[r.begin()].steps += m.steps();
     });
     Tally total;
     for (const Tally& t : tallies) total.add(t);
@@ -156,11 +162,19 @@ Tally trace_beam(const SlabSettings& s, const Scene& scene, const PhotonTracer& 
 
 }  // namespace
 
-double semi_infinite_tau(int max_bounces) {
-    // P(Γ(k, 1) > x k) <= exp(−k (x − 1 − ln x)) for x > 1 (Chernoff); ask for an exponent of 60.
-    const double k = static_cast<double>(max_bounces) + 1.0;
+double semi_infinite_tau(int max_bounces, double albedo) {
+    // A photon reaches depth τ only if it survives k interactions (Russian roulette on the
+    // albedo: probability albedo^k) or if its first k + 1 flights, unit-mean exponentials, sum to
+    // more than τ: P(Γ(k, 1) > x k) <= exp(−k (x − 1 − ln x)) for x > 1 (Chernoff). Each term is
+    // held below e^-61, so the sum stays below e^-60 (1e-26). k: max_bounces, or fewer where the
+    // albedo ends every path sooner (579 at albedo 0.9), which keeps a thick slab's cost (the
+    // tentative collisions in its density ramps grow as sqrt(τ)) independent of its τ.
+    constexpr double kExponent = 61.0;
+    double k = static_cast<double>(max_bounces);
+    if (albedo < 1.0) k = std::min(k, std::ceil(kExponent / -std::log(albedo)));
+    k += 1.0;
     double x = 1.0 + 1e-6;
-    while (k * (x - 1.0 - std::log(x)) < 60.0) x *= 1.001;
+    while (k * (x - 1.0 - std::log(x)) < kExponent) x *= 1.001;
     // At most 1e6: deeper, free paths fall below float resolution (scene.cpp refuses such media),
     // and no walk of up to 1e8 steps goes that deep (its depth spreads as sqrt(steps) free paths:
     // probability below e^-1000).
@@ -176,7 +190,7 @@ SlabResult run_slab(const SlabSettings& s) {
     result.photons = s.photons;
     // A slab thicker than the stand-in is the same medium for every photon that can be traced
     // (and a huge finite tau would leave float positions unable to advance a free path).
-    result.tau_model = std::min(s.tau, semi_infinite_tau(s.max_bounces));
+    result.tau_model = std::min(s.tau, semi_infinite_tau(s.max_bounces, s.albedo));
     result.tau_per_voxel = result.tau_model / s.voxels;
     const float width = kWidth * static_cast<float>(std::min(1.0, 100.0 / result.tau_model));
     const std::unique_ptr<Scene> scene = slab_scene(s, result.tau_model, width);
@@ -195,6 +209,8 @@ SlabResult run_slab(const SlabSettings& s) {
     result.bounce_cap = total.bounce_cap;
     result.bounce_cap_power = total.capped_power / static_cast<double>(s.photons);
     result.edge = total.edge;
+    result.interactions = total.interactions;
+    result.steps = total.steps;
     result.time_s = timer.seconds();
     return result;
 }

@@ -43,19 +43,25 @@ struct SlabResult {
     uint64_t bounce_cap = 0;  ///< still alive after max_bounces interactions (their power is lost)
     double bounce_cap_power = 0.0;  ///< that lost power as a share of the power sent in
     uint64_t edge = 0;        ///< last interaction outside the slab's uniform part (expected 0)
+    /// The work traced, deterministic: photon interactions (scatterings and absorptions), and
+    /// medium steps (density evaluations and tentative collisions, as auto's pilot counts them).
+    /// Bounded by photons and albedo, not by tau (tau_model below).
+    uint64_t interactions = 0, steps = 0;
     /// Optical thickness traced: tau, or the finite stand-in of a semi-infinite slab when tau is
     /// infinite or thicker than it (semi_infinite_tau: no photon path of at most max_bounces
-    /// interactions tells them apart).
+    /// interactions that survives Russian roulette with a share above 1e-26 tells them apart).
     double tau_model = 0.0;
     double tau_per_voxel = 0.0;   ///< optical depth of one voxel across the thickness
     bool delta_in_march = false;  ///< method march, but the slab is stiff: free paths delta-tracked
     double time_s = 0.0;
 };
 
-/// Optical thickness that stands in for a semi-infinite slab: a photon with at most
-/// `max_bounces` interactions reaches its bottom with probability below 1e-26 (Chernoff bound on
-/// the sum of max_bounces + 1 unit-mean exponential flights); at least 100, at most 1e6.
-double semi_infinite_tau(int max_bounces);
+/// Optical thickness that stands in for a semi-infinite slab: a photon reaches its bottom with
+/// probability below 1e-26 — it would need to survive Russian roulette on `albedo` (in [0, 1])
+/// past k interactions, or its first k + 1 unit-mean exponential flights to sum past the
+/// thickness (Chernoff), with k at most max_bounces; at least 100, at most 1e6 (889 at albedo
+/// 0.9, 1e6 at albedo 1 and the default max_bounces).
+double semi_infinite_tau(int max_bounces, double albedo = 1.0);
 
 /// Builds the slab (a VDB file in the temp folder, removed once loaded) and traces the beam.
 /// Settings must be in range (the CLI checks them); throws std::runtime_error if the temp grid

@@ -40,42 +40,6 @@ constexpr int kPilotSpp = 4;
 constexpr double kPilotMinPhotons = 1.0 / 16.0;
 static_assert(kPilotSpp % kStrataGroup == 0, "the pilot's samples stratify as the render's");
 
-// The pilot's pixels, the tiles t ≡ 0 (mod count) of render/tiles.h's kTile × kTile tiles
-// (rows in turn), kept in one compact array: each of those tiles' rows in turn, so the pilot
-// holds 1/count of an image per run instead of a whole one.
-class ShareLayout {
-public:
-    ShareLayout(int width, int height, int count)
-        : width_(width), height_(height), tiles_x_((width + kTile - 1) / kTile), count_(count) {
-        const int tiles = tiles_x_ * ((height + kTile - 1) / kTile);
-        for (int t = 0; t < tiles; t += count) {
-            offset_.push_back(size_);
-            const int x0 = (t % tiles_x_) * kTile, y0 = (t / tiles_x_) * kTile;
-            size_ += size_t(std::min(kTile, width - x0)) * size_t(std::min(kTile, height - y0));
-        }
-    }
-    size_t size() const { return size_; }
-    bool contains(int x, int y) const { return ((y / kTile) * tiles_x_ + x / kTile) % count_ == 0; }
-    size_t index(int x, int y) const {  // of a pixel it contains
-        const int t = (y / kTile) * tiles_x_ + x / kTile, x0 = (x / kTile) * kTile;
-        return offset_[t / count_] + size_t(y % kTile) * size_t(std::min(kTile, width_ - x0)) +
-               size_t(x - x0);
-    }
-    /// The share's pixels of a whole image.
-    std::vector<Color> gather(const Image& image) const {
-        std::vector<Color> out(size_);
-        for (int y = 0; y < height_; ++y)
-            for (int x = 0; x < width_; ++x)
-                if (contains(x, y)) out[index(x, y)] = image.at(x, y);
-        return out;
-    }
-
-private:
-    int width_, height_, tiles_x_, count_;
-    std::vector<size_t> offset_;  ///< per tile of the share
-    size_t size_ = 0;
-};
-
 // What the Plan adds to a photon pick: where its camera paths end in the volume map, if they do.
 std::string map_end_words(const SceneDesc& desc) {
     if (desc.volume.gather_depth <= 0) return "";
@@ -84,6 +48,34 @@ std::string map_end_words(const SceneDesc& desc) {
 }
 
 }  // namespace
+
+ShareLayout::ShareLayout(int width, int height, int count)
+    : width_(width), height_(height), tiles_x_((width + kTile - 1) / kTile), count_(count) {
+    const int tiles = tiles_x_ * ((height + kTile - 1) / kTile);
+    for (int t = 0; t < tiles; t += count) {
+        offset_.push_back(size_);
+        const int x0 = (t % tiles_x_) * kTile, y0 = (t / tiles_x_) * kTile;
+        size_ += size_t(std::min(kTile, width - x0)) * size_t(std::min(kTile, height - y0));
+    }
+}
+
+bool ShareLayout::contains(int x, int y) const {
+    return ((y / kTile) * tiles_x_ + x / kTile) % count_ == 0;
+}
+
+size_t ShareLayout::index(int x, int y) const {
+    const int t = (y / kTile) * tiles_x_ + x / kTile, x0 = (x / kTile) * kTile;
+    return offset_[t / count_] + size_t(y % kTile) * size_t(std::min(kTile, width_ - x0)) +
+           size_t(x - x0);
+}
+
+std::vector<Color> ShareLayout::gather(const Image& image) const {
+    std::vector<Color> out(size_);
+    for (int y = 0; y < height_; ++y)
+        for (int x = 0; x < width_; ++x)
+            if (contains(x, y)) out[index(x, y)] = image.at(x, y);
+    return out;
+}
 
 Work work_units(const Report& r) {
     Work w;

@@ -13,6 +13,7 @@
 // thread and rank count, as the image must be. The guided tracer's volume map closes by the photon
 // integrator's attempts rule, in the pilot and when picked.
 
+#include "core/image.h"
 #include "render/run_setup.h"
 #include "scene/scene_desc.h"
 
@@ -47,6 +48,29 @@ struct Pilot {
     int spp = 1;         ///< per pilot image
     std::vector<PilotCandidate> candidates;  ///< photon, path, guided
     size_t best = 0;                         ///< the least score (the first of equal ones)
+};
+
+/// The pilot's pixels, the tiles t ≡ 0 (mod count) of render/tiles.h's kTile × kTile tiles
+/// (rows of tiles in turn, the last ones clipped to the image), kept in one compact array: each
+/// of those tiles' pixels row by row, the tiles in turn, so the pilot holds 1/count of an image
+/// per run instead of a whole one. Immutable after construction.
+class ShareLayout {
+public:
+    /// The share of a width × height image (both >= 1) at one tile in `count` (>= 1).
+    ShareLayout(int width, int height, int count);
+    /// The number of pixels in the share.
+    size_t size() const { return size_; }
+    /// Whether pixel (x, y) (0 <= x < width, 0 <= y < height) lies in the share's tiles.
+    bool contains(int x, int y) const;
+    /// The compact index, in [0, size()), of a pixel the share contains (else undefined).
+    size_t index(int x, int y) const;
+    /// The share's pixels of a whole image (width × height): image.at(x, y) at index(x, y).
+    std::vector<Color> gather(const Image& image) const;
+
+private:
+    int width_, height_, tiles_x_, count_;
+    std::vector<size_t> offset_;  ///< per tile of the share: the index of its first pixel
+    size_t size_ = 0;
 };
 
 /// The tiles and samples per pixel of the pilot's images for `desc` (candidates and seeds

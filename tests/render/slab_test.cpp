@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -90,6 +91,41 @@ TEST(SlabValidation, SemiInfiniteHighAlbedoSlabsMatchAddingDoublingWithDefaultFl
     check_adding_doubling(kInf, 0.99, -0.9, 20000);
     check_adding_doubling(kInf, 0.999, 0.875, 5000);
     check_adding_doubling(1e15, 0.9, 0.75, 20000);
+}
+
+// Hardening: a finite but huge tau (1e15, 1e30) is traced as the semi-infinite stand-in
+// (semi_infinite_tau: at albedo 0.9 no photon gets deeper than ~900 with probability above 1e-26),
+// so it finishes in the work of tau = inf: the same interactions and medium steps, bit for bit.
+// Independent values: Rd against adding-doubling's semi-infinite slab (3 combined SEs, its own
+// ~1e-5 as its SE), Tt = 0; interactions per photon at most 1/(1 − albedo) + 3 SE, the mean of
+// the geometric count that Russian roulette on the albedo allows (SE sqrt(albedo)/(1 − albedo)
+// / sqrt(N)). Medium steps per photon: 50 measured; the null collisions in the slab's density ramps
+// grow as sqrt(tau) (1220 when the stand-in was 1e6), so 200 bounds them independently of tau.
+TEST(SlabValidation, HugeTauIsTheSemiInfiniteSlabWithBoundedWork) {
+    constexpr double kAlbedo = 0.9, kG = 0.75;
+    constexpr uint64_t kN = 20000;
+    const double rd_ref = slab_reference::adding_doubling(kInf, kAlbedo, kG).rd.mean;
+    const double interactions_bound =
+        1.0 / (1.0 - kAlbedo) + 3.0 * std::sqrt(kAlbedo) / (1.0 - kAlbedo) / std::sqrt(double(kN));
+    for (FreePathMethod method : kMethods) {
+        const SlabResult inf = run_slab(settings(kInf, kAlbedo, kG, method, kN));
+        for (double tau : {1e15, 1e30}) {
+            const SlabSettings s = settings(tau, kAlbedo, kG, method, kN);
+            const SlabResult r = run_slab(s);
+            EXPECT_TRUE(std::isfinite(r.rd.mean) && std::isfinite(r.rd.standard_error) &&
+                        std::isfinite(r.tt.mean) && std::isfinite(r.tt.standard_error))
+                << label(s, "finite");
+            EXPECT_EQ(r.bounce_cap, 0u) << label(s, "bounce cap");
+            EXPECT_EQ(r.tt.mean, 0.0) << label(s, "Tt");
+            expect_match(r.rd, {rd_ref, 1e-5}, label(s, "Rd vs semi-infinite adding-doubling"));
+            EXPECT_EQ(r.tau_model, inf.tau_model) << label(s, "stand-in");
+            EXPECT_EQ(r.interactions, inf.interactions) << label(s, "interactions as tau = inf");
+            EXPECT_EQ(r.steps, inf.steps) << label(s, "medium steps as tau = inf");
+            EXPECT_LE(double(r.interactions) / double(kN), interactions_bound)
+                << label(s, "interactions per photon");
+            EXPECT_LE(double(r.steps) / double(kN), 200.0) << label(s, "medium steps per photon");
+        }
+    }
 }
 
 // The cap drops photons still alive after max_bounces interactions; in a conservative slab their

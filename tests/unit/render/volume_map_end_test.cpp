@@ -96,6 +96,69 @@ TEST(SigmaTable, CubeAveragesMatchALinearRampAndAHalfFilledCube) {
     }
 }
 
+// cube_average against a brute-force average over exactly the cube its contract names (edge
+// `edge` about x) of a field that is not linear, so that a cube of the wrong size gives another
+// value: density 0.2, and 1.0 in the octant of voxels i, j, k >= 20 (voxels of 0.1, centres at
+// index × 0.1), which the grid's trilinear interpolation makes 0.2 + 0.8 r(x) r(y) r(z), r
+// ramping from 0 at 1.9 to 1 at 2.0. The cubes (random centres and edges) keep their faces out of
+// [1.8, 2.1] and inside [0.5, 3.4]: there σ_s is constant over the table's partial cells (edge
+// 0.1, the voxel), and over whole cells its cell-centre values integrate r exactly (r is a step
+// blurred by a box one cell wide; the product over axes stays exact), so the table's average is
+// exact up to float rounding (below 1e-4 σ_s). The reference: the midpoint rule on n³ points of
+// the cube, of σ_s as the medium samples it. In 1-D its error is at most h² / (8 w) per kink of r
+// (h = edge / n, two kinks of slope change 1/w, w = 0.1), so the average's error is at most
+// 0.8 σ_s × 3 × 2 h² / (8 w edge) = 0.6 σ_s edge / (w n²): 1e-3 σ_s at edge 1.4 and n = 96.
+// A cube of twice or half the edge moves the averages by 0.01-0.1 σ_s here (e.g. at x = 2.0³,
+// edge 0.6: 0.359 against 0.327 at edge 1.2 and 0.437 at 0.3), ten times the tolerance or more.
+TEST(SigmaTable, CubeAverageMatchesABruteForceAverageOverTheCubeOfItsEdge) {
+    const int voxels = 40, n = 96;
+    const float voxel = 0.1f, low = 0.2f, high = 1.0f;
+    const std::shared_ptr<const DensityGrid> grid = test::density_grid(
+        voxels, voxels, voxels,
+        [&](int i, int j, int k) { return i >= 20 && j >= 20 && k >= 20 ? high : low; },
+        Vec3(voxel));
+    const Color sigma_s(2.0f, 1.0f, 0.5f);
+    const std::vector<Medium> media{
+        Medium::heterogeneous({sigma_s, Color(0.0f), 0.0f}, grid, Mat4(1.0f))};
+    const SigmaTable table(media, 0.5f);
+    std::vector<Medium::Sampler> samplers;
+    for (const Medium& m : media) samplers.emplace_back(m);
+    const auto face_ok = [](float f) { return f >= 0.5f && f <= 3.4f && (f < 1.8f || f > 2.1f); };
+    Rng rng(7, 3);
+    int cubes = 0, straddling = 0;
+    while (cubes < 12) {
+        const float edge = 0.3f + 1.1f * rng.uniform();
+        const Vec3 x = Vec3(1.2f) + 1.6f * Vec3(rng.uniform(), rng.uniform(), rng.uniform());
+        bool ok = true;
+        for (int a = 0; a < 3; ++a)
+            ok = ok && face_ok(x[a] - 0.5f * edge) && face_ok(x[a] + 0.5f * edge);
+        if (!ok) continue;
+        ++cubes;
+        DVec3 sum(0.0);
+        const float h = edge / float(n);
+        for (int k = 0; k < n; ++k)
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i) {
+                    const Vec3 p =
+                        x - Vec3(0.5f * edge) + h * (Vec3(float(i), float(j), float(k)) + 0.5f);
+                    sum += DVec3(sigma_s_at(samplers, p));
+                }
+        const DVec3 expected = sum / (double(n) * n * n);
+        const Color got = table.cube_average(x, edge);
+        bool mixed = false;  // the cube holds both densities
+        for (int c = 0; c < 3; ++c) {
+            const double tol =
+                sigma_s[c] * ((high - low) * 3.0 * 2.0 * h * h / (8.0 * voxel * edge) + 1e-4);
+            EXPECT_NEAR(got[c], expected[c], tol)
+                << "x " << x.x << " " << x.y << " " << x.z << " edge " << edge << " channel " << c;
+            mixed = mixed || (expected[c] > sigma_s[c] * (low + 0.01f) &&
+                              expected[c] < sigma_s[c] * (high - 0.01f));
+        }
+        straddling += mixed;
+    }
+    EXPECT_GE(straddling, 6);  // most cubes see the step, so their size matters
+}
+
 TEST(VolumeMapEnd, HomogeneousPhotonCloudGivesDensityTimesPowerTimesPhaseOverSigmaS) {
     const int count = 200000;
     Rng rng(11, 2);
