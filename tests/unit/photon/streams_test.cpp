@@ -36,12 +36,8 @@ SceneDesc four_lights() {
     d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
     d.lights.push_back(environment(0.5f));
     d.lights.push_back(point_light(Vec3(3.0f, 2.0f, 1.0f), 4.0f));
-    LightDesc spot = point_light(Vec3(-1.0f, 3.5f, 0.5f), 3.0f);
-    spot.type = LightType::Spot;
-    spot.direction = Vec3(0.2f, -1.0f, -0.1f);
-    spot.cone_angle_deg = 35.0f;
-    spot.cone_delta_deg = 10.0f;
-    d.lights.push_back(spot);
+    d.lights.push_back(spot_light(Vec3(-1.0f, 3.5f, 0.5f), Vec3(0.2f, -1.0f, -0.1f), 3.0f,
+                                  35.0f, 10.0f));
     d.materials["glass"] = MaterialDesc{MaterialType::Glass, Color(1.0f), 1.5f};
     add_ground(&d, -1.0f, 8.0f, 0.5f, "floor");
     ShapeDesc ball;
