@@ -1,9 +1,9 @@
 // The volume gather of one camera ray through the volume map, per estimator, on the same photons
 // and the same rays (one thread):
 //   march_only         the camera march alone (σ sampling, transmittance): the cost all share,
-//   sphere_every_step  march + the k-NN sphere estimate at every step (volume.lookups_per_ray 0),
+//   sphere_every_step  march + the k-NN sphere estimate at every step (advanced.lookups_per_ray 0),
 //   sphere_8_lookups   march + 8 lookups at steps drawn by stratified importance sampling of the
-//                      march weights (the integrator's default, volume.lookups_per_ray = 8),
+//                      march weights (the integrator's default, advanced.lookups_per_ray = 8),
 //   beam               march + one BeamTree::for_each_hit per ray,
 //   photon_beams       march + one PhotonBeams::for_each_hit per ray over the same photon paths'
 //                      beams (volume.estimator photon_beams).

@@ -34,7 +34,7 @@ public:
     ThreadState make_state() const;
 
     /// One camera sample along ray (unit direction), split into the film's layers. Its photon-map
-    /// lookups (volume, caustic, global) weigh map_weight; 0 leaves them out (render.map_spp).
+    /// lookups (volume, caustic, global) weigh map_weight; 0 leaves them out (advanced.map_spp).
     FilmSample radiance(const Ray& ray, Rng& rng, ThreadState& ts, float map_weight = 1.0f) const;
 
     /// Wall time of the precomputation (beam radii and hierarchy, irradiance points).
@@ -62,7 +62,7 @@ private:
 };
 
 /// The weight of sample ps's photon-map lookups when map_spp of a pixel's samples make them
-/// (render.map_spp; 0 = all, weight 1): sample s is chosen when (s + offset) % step == 0, with
+/// (advanced.map_spp; 0 = all, weight 1): sample s is chosen when (s + offset) % step == 0, with
 /// step = spp / map_spp (integer division) and the pixel's offset uniform in [0, step) (from
 /// ps.key), so every sample is chosen with probability 1/step and weighs step (Horvitz–Thompson:
 /// unbiased), and the chosen samples' N-rooks columns are stratified over the pixel. 0 for the

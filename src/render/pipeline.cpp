@@ -224,7 +224,7 @@ void RunLoop::begin() {
     }
 }
 
-/// Iteration i's settings: its seed, and the tiles this process renders.
+/// Iteration i's settings: the run's, with the iteration's seed.
 RenderSettings RunLoop::iteration_settings(int i) const {
     RenderSettings settings = desc_.render;
     settings.seed = iteration_seed(desc_.render.seed, i, progressive_);
@@ -267,7 +267,7 @@ PhotonMaps RunLoop::trace_maps(uint64_t seed, int i, IterationReport* it) {
 }
 
 /// The guided tracer: camera paths split by the map's light to come (AdjointSplit), directions
-/// guided at the first render.guide_vertices medium vertices.
+/// guided at the first advanced.guide_vertices medium vertices.
 Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
                             const RenderSettings& settings, RenderStats* stats) {
     std::optional<VolumeGuide> guide;

@@ -62,7 +62,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
 
 /// Tables that runs on one loaded scene share, each built by the first run that needs it (and
 /// counted in its report's work alone): the suns' shadow grids (their light, media and
-/// volume.sun_grid must be the same for every run).
+/// advanced.sun_grid must be the same for every run).
 struct SharedTables {
     std::optional<SunShadows> sun;
 };

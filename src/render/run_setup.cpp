@@ -111,7 +111,7 @@ PlanItem plan_marching(const SceneDesc& desc) {
         for (const MediumDesc& m : desc.media) grids = grids && m.type == MediumType::Vdb;
         const std::string sun_shadows =
             sun && grids ? ", take the sun's transmittance from a grid of optical depth along it "
-                           "(nodes volume.sun_grid = " +
+                           "(nodes advanced.sun_grid = " +
                                g_text(desc.volume.sun_grid) +
                                (desc.volume.sun_grid == 1.0f ? " voxel" : " voxels") + " apart)"
                          : "";
@@ -227,7 +227,7 @@ Plan plan_for(const SceneDesc& desc) {
         if (desc.volume.gather_tau > 0.0f) {  // render/volume_map_end.h, FineEnough
             char tau[160];
             std::snprintf(tau, sizeof tau,
-                          " or the first after it where its ball spans at most volume.gather_tau "
+                          " or the first after it where its ball spans at most advanced.gather_tau "
                           "= %g scattering mean free paths (by vertex %d)",
                           double(desc.volume.gather_tau), kLatestEndFactor * d);
             at += tau;
@@ -325,7 +325,8 @@ IterationSize iteration_size(const SceneDesc& desc) {
                                 " camera samples, the volume map's photons following them";
     if (desc.progressive.enabled()) {
         const int iterations = desc.progressive.iterations;
-        if (given > 0) return {given, iterations, "progressive: " + text(given, "progressive.spp")};
+        if (given > 0)
+            return {given, iterations, "progressive: " + text(given, "advanced.iteration_spp")};
         if (!rule)
             return {spp, iterations,
                     "progressive: " + text(spp, "render.spp: the photon budgets are the scene's")};
@@ -341,9 +342,9 @@ IterationSize iteration_size(const SceneDesc& desc) {
     const std::string split = "render.spp " + std::to_string(spp) + " as ";
     if (given > 0 && given < spp) {
         const int iterations = (spp + given - 1) / given;
-        return {
-            given, iterations,
-            split + std::to_string(iterations) + " progressive " + text(given, "progressive.spp")};
+        return {given, iterations,
+                split + std::to_string(iterations) + " progressive " +
+                    text(given, "advanced.iteration_spp")};
     }
     const uint64_t iterations = rule
                                     ? std::min<uint64_t>(pixels * uint64_t(spp) / kIterationSamples,
@@ -418,16 +419,16 @@ bool reads(Method method, const std::string& section, const std::string& key) {
     if (section == "march") return method != Method::Path;
     if (section == "photons")
         return (key == "global" || key == "caustic") ? gather : method != Method::Path;
-    if (section == "render") {
-        if (key == "map_spp") return gather;
-        if (key == "guide_vertices") return method == Method::Guided;
-        return true;
-    }
     if (section == "volume") {
         if (key == "k" || key == "radius") return method != Method::Path;
         if (key == "gather_depth") return photon;
+        return gather;  // estimator
+    }
+    if (section == "advanced") {
+        if (key == "guide_vertices") return method == Method::Guided;
         if (key == "gather_tau" || key == "sun_grid") return method == Method::MapEnd;
-        return gather;  // estimator, lookups_per_ray, light_samples
+        if (key == "iteration_spp") return photon;
+        return gather;  // map_spp, lookups_per_ray, light_samples
     }
     return true;
 }

@@ -35,7 +35,7 @@ const char* describe(Method m);
 struct RunSetup {
     /// The scene's keys as they run: render.integrator named (never auto), and the keys set by
     /// rule filled in — volume.gather_depth (auto's), volume.k, photons.volume, render.spp and
-    /// progressive.spp (an iteration's), progressive.iterations (the schedule's).
+    /// advanced.iteration_spp (an iteration's), progressive.iterations (the schedule's).
     SceneDesc run;
     Method method = Method::Path;
     std::string reason = "scene";  ///< why this method: "scene", or auto's rule and pilot
@@ -114,11 +114,11 @@ struct IterationSize {
 /// larger maps cost more than their photons (docs/measurements.md, Progressive photon mapping).
 inline constexpr uint64_t kIterationSamples = uint64_t(1) << 20;
 
-/// For the photon methods. A progressive run: iterations of progressive.spp when the scene sets
-/// it; else, under the attempts rule with photons.volume not given, of the least multiple of
+/// For the photon methods. A progressive run: iterations of advanced.iteration_spp when the scene
+/// sets it; else, under the attempts rule with photons.volume not given, of the least multiple of
 /// render.spp that gives kIterationSamples camera samples; else of render.spp. A plain render of
-/// N = render.spp: progressive.spp given, ceil(N / progressive.spp) iterations of it; else, under
-/// the attempts rule with N x pixels >= 2 kIterationSamples, I = floor(N x pixels /
+/// N = render.spp: advanced.iteration_spp given, ceil(N / advanced.iteration_spp) iterations of it;
+/// else, under the attempts rule with N x pixels >= 2 kIterationSamples, I = floor(N x pixels /
 /// kIterationSamples) iterations of ceil(N / I) spp; else one iteration of N.
 IterationSize iteration_size(const SceneDesc& desc);
 

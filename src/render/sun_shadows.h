@@ -15,7 +15,7 @@
 
 namespace fogmap {
 
-/// volume.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
+/// advanced.sun_grid: suns wider than this (angular radius, degrees) keep their shadow-ray walks;
 /// the grid sees the sun's disc as its centre direction, and a wider penumbra is not a voxel's
 /// blur.
 inline constexpr float kSunGridMaxRadiusDeg = 1.0f;

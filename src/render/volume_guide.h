@@ -21,7 +21,7 @@
 
 namespace fogmap {
 
-/// Guiding settings; render.guide_vertices (`vertices`) is 0 unless a scene asks: guiding every
+/// Guiding settings; advanced.guide_vertices (`vertices`) is 0 unless a scene asks: guiding every
 /// vertex made fireflies in long random walks, and guiding the first medium vertex only did not
 /// beat the plain path tracer (docs/measurements.md; docs/why.md).
 struct GuideSettings {

@@ -22,7 +22,7 @@
 
 namespace fogmap {
 
-/// volume.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
+/// advanced.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
 inline constexpr int kLatestEndFactor = 4;
 
 /// σ_s averaged over a ball of radius r about any point, for every medium together: a dense grid

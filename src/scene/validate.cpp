@@ -467,11 +467,7 @@ void check_render(const SceneDesc& desc) {
     const RenderSettings& r = desc.render;
     const Checker k(desc, "/render");
     if (r.spp < 1) k.fail("spp", "spp must be >= 1; found " + std::to_string(r.spp));
-    if (r.map_spp < 0)
-        k.fail("map_spp",
-               "map_spp must be >= 0 (0 = every sample); found " + std::to_string(r.map_spp));
     k.int_range("max_depth", r.max_depth, 1, kMaxDepthLimit);
-    k.int_range("guide_vertices", r.guide_vertices, 0, kMaxDepthLimit);
     if (r.threads < 0) {
         k.fail("threads",
                "threads must be >= 0 (0 = all cores); found " + std::to_string(r.threads));
@@ -515,11 +511,7 @@ void check_gather(const SceneDesc& desc) {
         const Checker k(desc, "/volume");
         k.int_range("k", v.k_or_default(), 1, kMaxGatherK);
         k.non_negative("radius", v.radius);
-        k.int_range("lookups_per_ray", v.lookups_per_ray, 0, 4096);
-        k.int_range("light_samples", v.light_samples, 0, 4096);
         k.int_range("gather_depth", v.gather_depth, 0, 1000);
-        k.non_negative("gather_tau", v.gather_tau);
-        k.non_negative("sun_grid", v.sun_grid);
         if (v.gather_depth > 0 && v.estimator == VolumeEstimator::PhotonBeams)
             k.fail("estimator",
                    "\"photon_beams\" gathers along camera rays, which gather_depth " +
@@ -551,13 +543,28 @@ void check_march(const SceneDesc& desc) {
     k.non_negative("step_world", m.step_world);
 }
 
+/// The research knobs of "advanced" (scene/scene_desc_json.cpp).
+void check_advanced(const SceneDesc& desc) {
+    const Checker k(desc, "/advanced");
+    if (desc.render.map_spp < 0)
+        k.fail("map_spp", "map_spp must be >= 0 (0 = every sample); found " +
+                              std::to_string(desc.render.map_spp));
+    k.int_range("guide_vertices", desc.render.guide_vertices, 0, kMaxDepthLimit);
+    k.int_range("lookups_per_ray", desc.volume.lookups_per_ray, 0, 4096);
+    k.int_range("light_samples", desc.volume.light_samples, 0, 4096);
+    k.non_negative("gather_tau", desc.volume.gather_tau);
+    k.non_negative("sun_grid", desc.volume.sun_grid);
+    if (desc.progressive.spp < 0)
+        k.fail("iteration_spp", "iteration_spp must be >= 0 (0 = by rule); found " +
+                                    std::to_string(desc.progressive.spp));
+}
+
 void check_progressive(const SceneDesc& desc) {
     const ProgressiveDesc& p = desc.progressive;
     const Checker k(desc, "/progressive");
     k.int_range("iterations", p.iterations, 0, kMaxProgressiveIterations);
     k.non_negative("time_budget", p.time_budget);
     k.range("alpha", p.alpha, 0.0f, 1.0f, true);
-    if (p.spp < 0) k.fail("spp", "spp must be >= 0 (0 = by rule); found " + std::to_string(p.spp));
     if (p.enabled() && desc.render.integrator != Integrator::Photon &&
         desc.render.integrator != Integrator::Auto)
         k.fail("", "progressive photon mapping needs render.integrator \"photon\"; found \"" +
@@ -577,6 +584,7 @@ void validate(const SceneDesc& desc) {
     check_gather(desc);
     check_march(desc);
     check_progressive(desc);
+    check_advanced(desc);
 }
 
 }  // namespace fogmap

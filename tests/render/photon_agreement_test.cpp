@@ -367,13 +367,13 @@ double worst_block(const Image& image, const Image& reference, const std::vector
     return worst;
 }
 
-// volume.gather_tau: smoke1 over a 10 km ground with σ 5× bench/scenes/smoke1_ground.json's, its
+// advanced.gather_tau: smoke1 over a 10 km ground with σ 5× bench/scenes/smoke1_ground.json's, its
 // default settings otherwise (camera paths ending in the volume map from vertex 3). Under
 // its lit face the light falls over a mean free path, a fraction of the map's radius; paths that
 // all ended at vertex 3 left the dense foot 12–22% dark there (64 spp, 160×120). Ending them only
 // where the ball spans at most 1.5 scattering mean free paths (the default): every 8×8 block of
 // the medium's pixels within 7% of the path tracer (1024 spp) and the medium's pixels within 1.5%
-// (measured 4.0% and −0.46%; with volume.gather_tau 0, 14.4% and −2.0%).
+// (measured 4.0% and −0.46%; with advanced.gather_tau 0, 14.4% and −2.0%).
 TEST(PhotonAgreement, DenseSmokeEndsPathsWhereTheMapIsFineEnough) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/bench/scenes/smoke1_ground.json";
     const std::string vdb = std::string(FOGMAP_SHARED_VOLUMES) + "/smoke1.vdb";
@@ -460,7 +460,7 @@ TEST(GuidedAgreement, GuidedPathTracerMatchesThePathTracer) {
         o[4] = "render.integrator=\"guided\"";
         for (const int vertices : {0, 1}) {
             o[5] = "render.seed=" + std::to_string(4 + vertices);
-            o.push_back("render.guide_vertices=" + std::to_string(vertices));
+            o.push_back("advanced.guide_vertices=" + std::to_string(vertices));
             const Image guided = run_pipeline(load_scene_desc(path, o), true).film.beauty;
             o.pop_back();
             const auto [mean, se] = mean_difference(guided, plain);
@@ -477,10 +477,10 @@ TEST(GuidedDeterminism, OneAndTwoThreadsGiveIdenticalImages) {
     expect_same_on_one_and_two_threads(
         "cloud.json",
         {"camera.width=32", "camera.height=18", "render.spp=8", "photons.volume=20000",
-         "render.integrator=\"guided\"", "render.guide_vertices=1"});
+         "render.integrator=\"guided\"", "advanced.guide_vertices=1"});
 }
 
-// render.map_spp: a pixel's photon-map lookups made by 1 or 4 of its 16 samples, weighted 16 or
+// advanced.map_spp: a pixel's photon-map lookups made by 1 or 4 of its 16 samples, weighted 16 or
 // 4, estimate the same pixel means as lookups by all 16 (the maps are the same: same seed). Per
 // map layer, the per-pixel differences must be zero-mean within 4 standard errors (a missing
 // weight is off by 4-16x) and not all zero (fewer lookups did happen).
@@ -490,9 +490,9 @@ TEST(PhotonMapSamples, FewerLookupsPerPixelEstimateTheSameMeans) {
         std::vector<std::string> o{"camera.width=48",       "camera.height=27",
                                    "render.spp=16",         "photons.volume=20000",
                                    "photons.global=10000",  "photons.caustic=10000",
-                                   "volume.gather_depth=0", "render.map_spp=0"};
+                                   "volume.gather_depth=0", "advanced.map_spp=0"};
         const Film all = run_pipeline(load_scene_desc(path, o), true).film;
-        for (const char* fewer : {"render.map_spp=1", "render.map_spp=4"}) {
+        for (const char* fewer : {"advanced.map_spp=1", "advanced.map_spp=4"}) {
             o.back() = fewer;
             const Film some = run_pipeline(load_scene_desc(path, o), true).film;
             for (Layer l : {Layer::VolumeMultiple, Layer::Indirect, Layer::Caustic}) {

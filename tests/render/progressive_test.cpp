@@ -91,7 +91,7 @@ TEST(Progressive, ErrorFallsOverIterationsAndMemoryStaysWithinOneIterationsBudge
 // cloud.json at 32 x 18 and 16 spp: 9 216 camera samples a pass, far below the rule's 2^20; its
 // volume map's budget is the attempts rule's. One iteration renders the rule's samples (the
 // least multiple of 16 at or above 2^20 / 576 a pixel) and its map fills to a photon per attempt,
-// a quarter of those samples; progressive.spp given is the iteration's size, and its map the
+// a quarter of those samples; advanced.iteration_spp given is the iteration's size, and its map the
 // budget's floor.
 TEST(Progressive, IterationsTakeTheRulesSamplesAndTheMapFollowsThem) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
@@ -107,7 +107,7 @@ TEST(Progressive, IterationsTakeTheRulesSamplesAndTheMapFollowsThem) {
     EXPECT_NE(r.plan_text.find("iterations of " + std::to_string(spp) + " spp"), std::string::npos)
         << r.plan_text;
 
-    o.push_back("progressive.spp=8");
+    o.push_back("advanced.iteration_spp=8");
     o.push_back("progressive.iterations=2");
     const Report given = run_pipeline(load_scene_desc(path, o), true).report;
     EXPECT_EQ(given.spp, 16);  // two iterations of 8
@@ -141,8 +141,8 @@ TEST(Progressive, PlainRendersOfManySamplesRunAsIterations) {
 TEST(Progressive, TheAdaptiveRadiusGathersFewerPhotonsAsTheBallShrinks) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/scenes/cloud.json";
     const std::vector<std::string> o{
-        "camera.width=16",   "camera.height=9",          "render.spp=1",
-        "progressive.spp=1", "progressive.iterations=8", "photons.volume=2000"};
+        "camera.width=16",          "camera.height=9",          "render.spp=1",
+        "advanced.iteration_spp=1", "progressive.iterations=8", "photons.volume=2000"};
     const Report r = run_pipeline(load_scene_desc(path, o), true).report;
     ASSERT_EQ(r.iterations.size(), 8u);
     const double alpha = 2.0 / 3.0;

@@ -1,7 +1,7 @@
 // Single scattering of the photon integrator along one camera ray through a homogeneous cube,
 // against the integral computed here by quadrature: a point or spot light close to the ray (the
 // 1/r² peak equi-angular sampling is for) and a quad light (steps drawn ∝ the march's weights
-// only). Every volume.light_samples setting, including 0 (a shadow ray at every step), must give
+// only). Every advanced.light_samples setting, including 0 (a shadow ray at every step), must give
 // the same expectation.
 
 #include "render/photon_integrator.h"

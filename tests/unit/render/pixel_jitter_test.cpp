@@ -123,7 +123,7 @@ TEST(TileShare, SharesCoverEveryPixelExactlyOnce) {
     }
 }
 
-// render.map_spp (Horvitz–Thompson): over many pixels, every sample index s is chosen for the
+// advanced.map_spp (Horvitz–Thompson): over many pixels, every sample index s is chosen for the
 // photon-map lookups with probability 1 / step (binomial, within 5 standard deviations) and
 // weighs step, so E[weight] = 1 for each s; each pixel chooses about spp / step samples, at most
 // one per block of step consecutive N-rooks columns.

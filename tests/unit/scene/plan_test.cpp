@@ -281,32 +281,33 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     EXPECT_EQ(line(p, kMarching),
               "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
               "tracking (first segment) and delta tracking and end in the volume map)");
-    EXPECT_EQ(line(p, kVolume),
-              "volume map: built (1 scattering medium, budget 345600 photons (a photon per "
-              "attempt: photons.volume not set); camera paths end "
-              "in it at the medium vertex that is their vertex 2 (diffuse bounces count) or the "
-              "first after it where its ball spans at most volume.gather_tau = 1.5 scattering mean "
-              "free paths (by vertex 8), looked up from "
-              "a grid of its photons' moments (where more than 100 fall within its radius, within "
-              "a smaller one holding about volume.k = 50); it closes after 345600 photon attempts "
-              "(0.25 per camera sample, at least its budget) if not full before)");
+    EXPECT_EQ(
+        line(p, kVolume),
+        "volume map: built (1 scattering medium, budget 345600 photons (a photon per "
+        "attempt: photons.volume not set); camera paths end "
+        "in it at the medium vertex that is their vertex 2 (diffuse bounces count) or the "
+        "first after it where its ball spans at most advanced.gather_tau = 1.5 scattering mean "
+        "free paths (by vertex 8), looked up from "
+        "a grid of its photons' moments (where more than 100 fall within its radius, within "
+        "a smaller one holding about volume.k = 50); it closes after 345600 photon attempts "
+        "(0.25 per camera sample, at least its budget) if not full before)");
     // A sun over VDB media: its shadow rays read the optical depth along it from a grid
-    // (render/sun_shadows.h); volume.sun_grid 0, or a homogeneous medium, keeps ratio tracking.
+    // (render/sun_shadows.h); advanced.sun_grid 0, or a homogeneous medium, keeps ratio tracking.
     json sunny = smoke_only();
     sunny["lights"].push_back(json{{"type", "sun"}, {"direction", {0, -1, 0}}, {"irradiance", 3}});
     sunny["volume"] = json{{"gather_depth", 3}};
     EXPECT_EQ(line(make_plan(scene(sunny)), kMarching),
               "ray marching: used (1 medium; photon free paths march, camera paths use ratio "
               "tracking (first segment) and delta tracking, take the sun's transmittance from a "
-              "grid of optical depth along it (nodes volume.sun_grid = 1 voxel apart) and end in "
+              "grid of optical depth along it (nodes advanced.sun_grid = 1 voxel apart) and end in "
               "the volume map)");
-    sunny["volume"]["sun_grid"] = 2.5;
-    EXPECT_NE(line(make_plan(scene(sunny)), kMarching).find("volume.sun_grid = 2.5 voxels apart"),
+    sunny["advanced"]["sun_grid"] = 2.5;
+    EXPECT_NE(line(make_plan(scene(sunny)), kMarching).find("advanced.sun_grid = 2.5 voxels apart"),
               std::string::npos);
     sunny["lights"][1]["angular_radius_deg"] = 2;  // a penumbra wider than a voxel's blur
     EXPECT_EQ(line(make_plan(scene(sunny)), kMarching).find("sun"), std::string::npos);
     sunny["lights"][1]["angular_radius_deg"] = 0.27;
-    sunny["volume"]["sun_grid"] = 0;
+    sunny["advanced"]["sun_grid"] = 0;
     EXPECT_EQ(line(make_plan(scene(sunny)), kMarching).find("sun"), std::string::npos);
     json homogeneous = doc;
     homogeneous["lights"] = sunny["lights"];
@@ -315,7 +316,7 @@ TEST(Plan, GatherDepthEndsCameraPathsInTheVolumeMap) {
     // gather_tau 0 ends every path at vertex 2; a photons.max_emitted of the scene's own
     // replaces the attempts rule.
     doc["volume"]["radius"] = 0.5;
-    doc["volume"]["gather_tau"] = 0;
+    doc["advanced"]["gather_tau"] = 0;
     doc["photons"]["max_emitted"] = 2000000;
     EXPECT_EQ(line(make_plan(scene(doc)), kVolume),
               "volume map: built (1 scattering medium, budget 100000 photons; camera paths end "
@@ -372,7 +373,8 @@ TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
 
 // A progressive iteration's samples: the least multiple of render.spp that gives
 // kIterationSamples camera samples where the volume map's photons follow the samples (the
-// attempts rule's budget); the scene's render.spp where they do not; progressive.spp when given.
+// attempts rule's budget); the scene's render.spp where they do not; advanced.iteration_spp when
+// given.
 TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
     doc["progressive"]["time_budget"] = 10;
@@ -394,10 +396,10 @@ TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     doc = ending_in_the_map();
     doc["progressive"]["time_budget"] = 10;
     doc["render"]["spp"] = 4;
-    doc["progressive"]["spp"] = 2;  // given: kept
+    doc["advanced"]["iteration_spp"] = 2;  // given: kept
     EXPECT_EQ(iteration_size(scene(doc)).spp, 2);
-    EXPECT_NE(iteration_size(scene(doc)).reason.find("progressive.spp"), std::string::npos);
-    doc["progressive"].erase("spp");
+    EXPECT_NE(iteration_size(scene(doc)).reason.find("advanced.iteration_spp"), std::string::npos);
+    doc["advanced"].erase("iteration_spp");
     apply_override(doc, "photons.volume=100000", "scene.json");  // the scene's budget: its spp
     EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
     doc["photons"].erase("volume");
@@ -409,7 +411,7 @@ TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
 // A plain render under the attempts rule with at least twice kIterationSamples camera samples
 // runs as I = floor(samples / kIterationSamples) iterations, each of the least spp that keeps
 // render.spp; one iteration below that, with the scene's budget or without the rule;
-// progressive.spp given splits render.spp into iterations of it.
+// advanced.iteration_spp given splits render.spp into iterations of it.
 TEST(Plan, PlainRendersOfManySamplesSplitIntoIterationsOfAMillion) {
     json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
     const uint64_t pixels = 120000;
@@ -437,12 +439,12 @@ TEST(Plan, PlainRendersOfManySamplesSplitIntoIterationsOfAMillion) {
     EXPECT_EQ(iteration_size(scene(doc)).spp, 17);
     EXPECT_EQ(iteration_size(scene(doc)).reason, "");
     doc["render"]["spp"] = 64;
-    doc["progressive"]["spp"] = 24;  // given: 3 iterations of 24
+    doc["advanced"]["iteration_spp"] = 24;  // given: 3 iterations of 24
     EXPECT_EQ(iteration_size(scene(doc)).iterations, 3);
     EXPECT_EQ(iteration_size(scene(doc)).spp, 24);
-    doc["progressive"]["spp"] = 64;  // given as render.spp: one iteration
+    doc["advanced"]["iteration_spp"] = 64;  // given as render.spp: one iteration
     EXPECT_EQ(iteration_size(scene(doc)).iterations, 1);
-    doc["progressive"].erase("spp");
+    doc["advanced"].erase("iteration_spp");
     json given = doc;
     given["photons"]["volume"] = 100000;  // the scene's budget: one iteration
     EXPECT_EQ(iteration_size(scene(given)).iterations, 1);
@@ -516,7 +518,7 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     EXPECT_NE(line(smoke, kVolume)
                   .find("camera paths end in it at the medium vertex that is their vertex 3 "
                         "(diffuse bounces count) or the first after it "
-                        "where its ball spans at most volume.gather_tau = 1.5 scattering mean "
+                        "where its ball spans at most advanced.gather_tau = 1.5 scattering mean "
                         "free paths (by vertex 12), looked up from a grid of its photons' "
                         "moments"),
               std::string::npos)

@@ -69,16 +69,17 @@ json full_scene() {
         {"type": "homogeneous", "bounds": {"min": [-1, 0, -1], "max": [1, 2, 1]},
          "density_scale": 0.5, "sigma_s": 0.1, "sigma_a": [0.01, 0.02, 0.03], "g": -0.3}
       ],
-      "render": {"integrator": "path", "spp": 64, "map_spp": 2, "guide_vertices": 2,
-                 "max_depth": 12, "seed": 18446744073709551615, "threads": 3},
+      "render": {"integrator": "path", "spp": 64, "max_depth": 12,
+                 "seed": 18446744073709551615, "threads": 3},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
                   "max_bounces": 7},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
-      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "lookups_per_ray": 5,
-                 "light_samples": 3, "gather_depth": 2, "gather_tau": 0.75, "sun_grid": 2.5},
+      "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "gather_depth": 2},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
-      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5, "spp": 24}
+      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5},
+      "advanced": {"map_spp": 2, "guide_vertices": 2, "lookups_per_ray": 5, "light_samples": 3,
+                   "gather_tau": 0.75, "sun_grid": 2.5, "iteration_spp": 24}
     })");
 }
 
@@ -239,26 +240,44 @@ TEST(SceneDescJson, GivenDefaultsAreToldFromDefaultsLeftToARule) {
               given.photons.volume);
 }
 
+// The research knobs live in one "advanced" object; a scene that gives one where it stood before
+// is told where it went, by its JSON pointer.
+TEST(SceneDescJson, ResearchKnobsInTheirOldPlacesSayWhereTheyMoved) {
+    const std::pair<const char*, const char*> moved[] = {
+        {R"({"render": {"map_spp": 2}})", "/render/map_spp"},
+        {R"({"render": {"guide_vertices": 1}})", "/render/guide_vertices"},
+        {R"({"volume": {"lookups_per_ray": 4}})", "/volume/lookups_per_ray"},
+        {R"({"volume": {"light_samples": 2}})", "/volume/light_samples"},
+        {R"({"volume": {"gather_tau": 1}})", "/volume/gather_tau"},
+        {R"({"volume": {"sun_grid": 2}})", "/volume/sun_grid"},
+        {R"({"progressive": {"spp": 8}})", "/progressive/spp"}};
+    for (const auto& [text, pointer] : moved) {
+        SCOPED_TRACE(text);
+        const InputError e = parse_error(json::parse(text));
+        EXPECT_EQ(e.field, pointer);
+        EXPECT_EQ(e.reason.rfind("moved to \"advanced\": {\"", 0), 0u) << e.reason;
+    }
+    EXPECT_NE(
+        parse_error(json::parse(R"({"progressive": {"spp": 8}})")).reason.find("iteration_spp"),
+        std::string::npos);
+}
+
 TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     const InputError e = parse_error(json::parse(R"({"render": {"spp_count": 4}})"));
     EXPECT_EQ(e.file, "scene.json");
     EXPECT_EQ(e.field, "/render/spp_count");
-    EXPECT_EQ(
-        e.reason,
-        "unknown key 'spp_count'; known keys: guide_vertices, integrator, map_spp, max_depth, "
-        "seed, spp, threads");
+    EXPECT_EQ(e.reason,
+              "unknown key 'spp_count'; known keys: integrator, max_depth, seed, spp, threads");
 
     const InputError top = parse_error(json::parse(R"({"medias": []})"));
     EXPECT_EQ(top.field, "/medias");
     EXPECT_EQ(top.reason,
-              "unknown key 'medias'; known keys: camera, caustic, global, lights, march, "
+              "unknown key 'medias'; known keys: advanced, camera, caustic, global, lights, march, "
               "materials, media, photons, progressive, render, shapes, volume");
 
     const InputError volume = parse_error(json::parse(R"({"volume": {"kk": 64}})"));
     EXPECT_EQ(volume.field, "/volume/kk");
-    EXPECT_EQ(volume.reason,
-              "unknown key 'kk'; known keys: estimator, gather_depth, gather_tau, k, "
-              "light_samples, lookups_per_ray, radius, sun_grid");
+    EXPECT_EQ(volume.reason, "unknown key 'kk'; known keys: estimator, gather_depth, k, radius");
 
     const InputError photons = parse_error(json::parse(R"({"photons": {"surface": 10}})"));
     EXPECT_EQ(photons.field, "/photons/surface");
@@ -376,7 +395,8 @@ TEST(SceneDescJson, SettingsJsonHoldsEveryEffectiveSetting) {
                        {"caustic", full["caustic"]},
                        {"volume", full["volume"]},
                        {"march", full["march"]},
-                       {"progressive", full["progressive"]}}));
+                       {"progressive", full["progressive"]},
+                       {"advanced", full["advanced"]}}));
 
     // Defaults are written too, but for the keys a rule sets when absent.
     const json defaults = settings_json(SceneDesc{});
@@ -531,8 +551,8 @@ TEST(SceneDescOverride, BadOverridesFailThroughTheNormalChecks) {
 
     const InputError k = catch_input_error([&] { load_scene_desc(path, {"render.spp_count=3"}); });
     EXPECT_EQ(k.field, "/render/spp_count");
-    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: guide_vertices, integrator, "
-                             "map_spp, max_depth, seed, spp, threads",
+    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: integrator, max_depth, seed, "
+                             "spp, threads",
                              0),
               0u)
         << k.reason;
@@ -578,9 +598,9 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "max_depth must be in [1, 100000000]; found 100000001"},
         {R"({"render": {"threads": -2}})", "/render/threads",
          "threads must be >= 0 (0 = all cores); found -2"},
-        {R"({"render": {"map_spp": -1}})", "/render/map_spp",
+        {R"({"advanced": {"map_spp": -1}})", "/advanced/map_spp",
          "map_spp must be >= 0 (0 = every sample); found -1"},
-        {R"({"render": {"guide_vertices": -1}})", "/render/guide_vertices",
+        {R"({"advanced": {"guide_vertices": -1}})", "/advanced/guide_vertices",
          "guide_vertices must be in [0, 100000000]; found -1"},
         {R"({"photons": {"global": 1000000001}})", "/photons/global",
          "global must be in [0, 1000000000]; found 1000000001"},
@@ -615,16 +635,16 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "step_voxels must be finite, > 0 and <= 1000000; found 2e+06"},
         {R"({"march": {"step_world": -0.1}})", "/march/step_world",
          "step_world must be finite and >= 0; found -0.1"},
-        {R"({"volume": {"light_samples": -1}})", "/volume/light_samples",
+        {R"({"advanced": {"light_samples": -1}})", "/advanced/light_samples",
          "light_samples must be in [0, 4096]; found -1"},
-        {R"({"volume": {"sun_grid": -0.5}})", "/volume/sun_grid",
+        {R"({"advanced": {"sun_grid": -0.5}})", "/advanced/sun_grid",
          "sun_grid must be finite and >= 0; found -0.5"},
         {R"({"progressive": {"alpha": 1}})", "/progressive/alpha",
          "alpha must be in (0, 1); found 1"},
         {R"({"progressive": {"iterations": -2}})", "/progressive/iterations",
          "iterations must be in [0, 1000000]; found -2"},
-        {R"({"progressive": {"spp": -1}})", "/progressive/spp",
-         "spp must be >= 0 (0 = by rule); found -1"},
+        {R"({"advanced": {"iteration_spp": -1}})", "/advanced/iteration_spp",
+         "iteration_spp must be >= 0 (0 = by rule); found -1"},
         {R"({"progressive": {"time_budget": -1}})", "/progressive/time_budget",
          "time_budget must be finite and >= 0; found -1"},
         {R"({"progressive": {"iterations": 4}})", "/progressive",
