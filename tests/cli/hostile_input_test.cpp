@@ -579,7 +579,7 @@ pid_t find_child(pid_t parent, const std::string& needle) {
 TEST_F(HostileInput, VdbProbeChildDiesWithItsParent) {
     // The root node's tile count (after the 15 doubles of the transform, the buffer count and the
     // background) made 2^30: OpenVDB loops over a billion tiles, so the probe child reads for
-    // about a minute (its own time limit) before it would fail.
+    // about 10 CPU-seconds (its own limit) before it would fail.
     const size_t tiles = plume_transform_offset() + 15 * 8 + 4 + 4;
     spit(path("slow.vdb"), plume_flipped(tiles + 3, 0x40));
     const pid_t parent =
