@@ -117,6 +117,9 @@ struct Counts {
 
 static_assert(sizeof(Counts) == kRunCounts * sizeof(int64_t), "a checkpoint stores every count");
 
+/// More lights than this make next-event estimation, not the samples, the bulk of the work.
+constexpr size_t kManyLights = 1000;
+
 /// The guide's settings: its radius is the volume gather's.
 GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     GuideSettings g;
@@ -134,6 +137,7 @@ public:
 
 private:
     void warn(const std::string& text);
+    void warn_many_lights();
     void begin();
     PhotonMaps trace_maps(uint64_t seed, int i, IterationReport* it);
     Film run_iteration(int i, IterationReport* it, RenderStats* stats);
@@ -199,6 +203,7 @@ void RunLoop::begin() {
     add_phase(&report_, "load", o_.load_s);
     if (o_.pilot_s > 0.0) add_phase(&report_, "pilot", o_.pilot_s);
     for (const std::string& w : scene_.warnings) warn(w);
+    warn_many_lights();
     if (!setup_.ignored.empty()) {
         std::string keys;
         for (const std::string& k : setup_.ignored) keys += (keys.empty() ? "" : ", ") + k;
@@ -222,6 +227,21 @@ void RunLoop::begin() {
                                               iteration_seed(desc_.render.seed, 1, true), true);
         first_gather_ = gather_params(desc_, scene_, build_trees(std::move(pass)), true);
     }
+}
+
+/// Next-event estimation takes a shadow ray to every light at every camera vertex: with many
+/// lights that, not the samples, sets the work, so the run says so up front with its estimate.
+void RunLoop::warn_many_lights() {
+    const size_t lights = scene_.lights.size();
+    if (lights <= kManyLights) return;
+    const double samples = double(desc_.camera.width) * desc_.camera.height * desc_.render.spp;
+    char text[300];
+    std::snprintf(text, sizeof text,
+                  "%zu lights: every camera vertex takes a shadow ray to each, so this run traces "
+                  "at least %.0f shadow rays (%.0f samples x %zu lights); merge lights or lower "
+                  "render.spp if that is too many",
+                  lights, samples * double(lights), samples, lights);
+    warn(text);
 }
 
 /// Iteration i's settings: the run's, with the iteration's seed.

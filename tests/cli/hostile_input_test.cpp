@@ -739,6 +739,32 @@ TEST_F(HostileInput, NegativeSeedsAndNonFiniteObjVerticesAreRefused) {
     }
 }
 
+// Many lights make next-event estimation, not the samples, the work: above 1000 lights the run
+// says so before it starts, with the number of shadow rays it takes at least (samples x lights).
+TEST_F(HostileInput, ManyLightsAreSaidUpFrontWithTheirShadowRays) {
+    for (const int n : {1000, 1001}) {
+        SCOPED_TRACE(n);
+        nlohmann::json doc = nlohmann::json::parse(R"({
+          "camera": {"position": [0, 1, 4], "look_at": [0, 0, 0], "width": 4, "height": 3},
+          "materials": {"g": {"type": "diffuse", "albedo": 0.5}},
+          "shapes": [{"type": "quad", "corner": [-5, 0, -5], "edge_u": [0, 0, 10],
+                      "edge_v": [10, 0, 0], "material": "g"}],
+          "render": {"spp": 1, "integrator": "path"}})");
+        for (int i = 0; i < n; ++i)
+            doc["lights"].push_back(
+                {{"type", "point"}, {"intensity", 0.01}, {"position", {0.01 * i, 3, 0}}});
+        const RunResult r =
+            run("render -q " + tmp_.write("many.json", doc.dump()) + " -o " + path("m.exr"));
+        ASSERT_EQ(r.code, 0) << r.err;
+        const std::string said = std::to_string(n) +
+                                 " lights: every camera vertex takes a "
+                                 "shadow ray to each, so this run traces at least " +
+                                 std::to_string(12 * n) + " shadow rays (12 samples x " +
+                                 std::to_string(n) + " lights)";
+        EXPECT_EQ(r.err.find(said) != std::string::npos, n > 1000) << r.err;
+    }
+}
+
 // ---- 5. Messages -------------------------------------------------------------------------------
 
 TEST_F(HostileInput, CorruptVdbMessagesAreFogmapReasonsNotLibraryText) {
