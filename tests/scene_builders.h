@@ -99,4 +99,26 @@ inline MediumDesc vdb_medium(const std::string& file, const Color& sigma_s, cons
     return m;
 }
 
+/// Every kind of photon-stream target at once: a sun, a sky, a point light and a spot over a
+/// diffuse floor "floor" (albedo 0.5, 2 `half` wide at height `floor_y`), a glass ball and a box
+/// of fog over [-1, 1]^3 (σ_s 1, σ_a 0.1).
+inline SceneDesc four_lights_ball_and_fog(float floor_y, float half) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
+    d.lights.push_back(environment(0.5f));
+    d.lights.push_back(point_light(Vec3(3.0f, 2.0f, 1.0f), 4.0f));
+    d.lights.push_back(
+        spot_light(Vec3(-1.0f, 3.5f, 0.5f), Vec3(0.2f, -1.0f, -0.1f), 3.0f, 35.0f, 10.0f));
+    d.materials["glass"] = MaterialDesc{MaterialType::Glass, Color(1.0f), 1.5f};
+    add_ground(&d, floor_y, half, 0.5f, "floor");
+    ShapeDesc ball;
+    ball.type = ShapeType::Sphere;
+    ball.center = Vec3(2.0f, 0.8f, -2.0f);
+    ball.radius = 0.5f;
+    ball.material = "glass";
+    d.shapes.push_back(ball);
+    d.media.push_back(homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(1.0f), Color(0.1f)));
+    return d;
+}
+
 }  // namespace fogmap::test

@@ -123,21 +123,26 @@ void check_not_an_input(const std::string& output, const std::string& option,
 
 namespace {
 
-/// The size and modification time of every file the scene reads (VDB media, meshes): a resumed
-/// run must read the very files its checkpoint was made from.
+/// The paths of every file the scene reads (VDB media, then meshes), resolved.
+std::vector<std::string> input_files(const SceneDesc& desc) {
+    std::vector<std::string> files;
+    for (const MediumDesc& m : desc.media)
+        if (m.type == MediumType::Vdb) files.push_back(resolve(desc, m.file));
+    for (const ShapeDesc& sh : desc.shapes)
+        if (sh.type == ShapeType::Mesh) files.push_back(resolve(desc, sh.file));
+    return files;
+}
+
+/// The size and modification time of every file the scene reads: a resumed run must read the
+/// very files its checkpoint was made from.
 std::string input_stamps(const SceneDesc& desc) {
     std::string stamps;
-    const auto stamp = [&](const std::string& file) {
+    for (const std::string& path : input_files(desc)) {
         std::error_code ec;
-        const std::string path = resolve(desc, file);
         const auto size = fs::file_size(path, ec);
         const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
         stamps += path + " " + std::to_string(size) + " " + std::to_string(time) + "\n";
-    };
-    for (const MediumDesc& m : desc.media)
-        if (m.type == MediumType::Vdb) stamp(m.file);
-    for (const ShapeDesc& sh : desc.shapes)
-        if (sh.type == ShapeType::Mesh) stamp(sh.file);
+    }
     return stamps;
 }
 
@@ -332,16 +337,11 @@ void agree_on_job(const RenderArgs& args, const RenderJob& job) {
     const SceneDesc first = job.range ? frame_desc(job.desc, job.range->first) : job.desc;
     std::string files;
     bool complete = true;
-    const auto digest = [&](const std::string& file) {
-        const std::string path = resolve(first, file);
+    for (const std::string& path : input_files(first)) {
         std::error_code ec;
         complete = complete && fs::is_regular_file(path, ec);
         files += "\n" + file_digest(path);
-    };
-    for (const MediumDesc& m : first.media)
-        if (m.type == MediumType::Vdb) digest(m.file);
-    for (const ShapeDesc& sh : first.shapes)
-        if (sh.type == ShapeType::Mesh) digest(sh.file);
+    }
     const uint64_t mine[2] = {fnv1a(settings), fnv1a(files)};
     std::vector<uint8_t> bytes(17);
     std::memcpy(bytes.data(), mine, 16);

@@ -259,7 +259,8 @@ void probe_vdb(const std::string& path, const std::string& field) {
     ProbeState& state = probe_state();
     const std::lock_guard<std::mutex> lock(state.mutex);
     if (state.self_exe.empty() || state.passed.count(path)) return;
-    const rlim_t cpu_s = cpu_limit_s(file_bytes(path));
+    const uint64_t bytes = file_bytes(path);
+    const rlim_t cpu_s = cpu_limit_s(bytes);
     const ChildResult r = run_child(state.self_exe, path);
     // SIGXCPU at the soft limit, SIGKILL at the hard one a second later.
     const bool out_of_time = WIFSIGNALED(r.status) &&
@@ -269,7 +270,7 @@ void probe_vdb(const std::string& path, const std::string& field) {
         throw InputError(path, field,
                          "corrupt VDB file: OpenVDB's reader did not finish it within " +
                              std::to_string(cpu_s) + " CPU-seconds (the limit for a file of " +
-                             std::to_string(file_bytes(path)) + " bytes)");
+                             std::to_string(bytes) + " bytes)");
     if (WIFSIGNALED(r.status))
         throw InputError(path, field,
                          "corrupt VDB file: OpenVDB's reader crashed on it (signal " +

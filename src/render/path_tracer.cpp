@@ -216,15 +216,23 @@ Color PathTracer::shadow(size_t li, const Vec3& origin, const LightSample& s, Rn
     return blocked ? Color(0.0f) : policy_.sun().transmittance(li, origin);
 }
 
-// A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
-// path's end (ends_here) or a phase (or guide) sampled direction for p. False: the path ends here.
-bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
+// Counts a scattering or bounce vertex of p; false (counted as capped) when max_depth has been
+// reached. *strata: the pixel's strata at the first vertex, else null.
+bool PathTracer::new_vertex(Path& p, ThreadState& ts, const PixelSample** strata) const {
     if (p.depth >= max_depth_) {
         ++ts.capped;
         return false;
     }
-    const PixelSample* first = p.depth == 0 ? p.strata : nullptr;
+    *strata = p.depth == 0 ? p.strata : nullptr;
     ++p.depth;
+    return true;
+}
+
+// A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
+// path's end (ends_here) or a phase (or guide) sampled direction for p. False: the path ends here.
+bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
+    const PixelSample* first = nullptr;
+    if (!new_vertex(p, ts, &first)) return false;
     const PhaseMix phase(ts.media, x);
     if (ends_here(p, x)) {
         end_path(p, x, phase, L, rng, ts);
@@ -434,12 +442,8 @@ void PathTracer::add_escaped(const Path& p, Color* L) const {
 // Specular: the material's reflected or refracted ray; diffuse: direct light and a
 // cosine-sampled direction.
 bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, ThreadState& ts) const {
-    if (p.depth >= max_depth_) {
-        ++ts.capped;
-        return false;
-    }
-    const PixelSample* strata = p.depth == 0 ? p.strata : nullptr;
-    ++p.depth;
+    const PixelSample* strata = nullptr;
+    if (!new_vertex(p, ts, &strata)) return false;
     const Material& mat = scene_.materials[hit.material];
     const Vec3 n = glm::dot(p.ray.d, hit.ng) < 0.0f ? hit.ng : -hit.ng;  // faces the ray
     Vec2 u(rng.uniform(), rng.uniform());

@@ -157,6 +157,8 @@ private:
     /// A medium vertex at x: direct light, then the end (false) or a new direction for p
     /// (false when Russian roulette ends it); a split's other copies traced into *L.
     bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
+    /// Counts a vertex of p; false past max_depth. *strata: the pixel's at the first vertex.
+    bool new_vertex(Path& p, ThreadState& ts, const PixelSample** strata) const;
     /// True: the policy ends p at its medium vertex x (EndInMap: counts it as a gather vertex).
     bool ends_here(Path& p, const Vec3& x) const;
     /// Into *L, the light of a path ending at medium vertex x: its direct light and the map's

@@ -241,15 +241,19 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared)
     return pilot;
 }
 
+SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup) {
+    SceneDesc desc = file;
+    desc.render.integrator = Integrator::Photon;
+    desc.volume.gather_depth = setup.run.volume.gather_depth;
+    return desc;
+}
+
 RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
                       SharedTables* shared, bool* piloted) {
     if (piloted) *piloted = false;
     if (!setup.pilot) return setup;
     setup.pilot = false;
-    // The rules below see the render as auto resolved it before any split into iterations.
-    SceneDesc desc = file;
-    desc.render.integrator = Integrator::Photon;
-    desc.volume.gather_depth = setup.run.volume.gather_depth;
+    const SceneDesc desc = piloted_desc(file, setup);
     if (desc.progressive.enabled()) {
         setup.set_reason(
             "auto: media under sun, sky or area lights, and progressive iterations, which the "

@@ -95,6 +95,10 @@ uint64_t pilot_seed(uint64_t seed, int k);
 /// `shared` (may be null): the tables the pilot's runs share, and leave to the render.
 Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared = nullptr);
 
+/// What the pilot runs on (run_pilot's `desc`): `file` with the photon integrator at the volume
+/// gather depth auto gave it in `setup` (resolve_run of `file`), before any split into iterations.
+SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup);
+
 /// `setup` (resolve_run of `file`) with auto's pick settled: where setup.pilot, the pilot's pick
 /// re-resolved from `file`, the measured reason appended; progressive runs keep the photon
 /// integrator (the others have no iterations) without a pilot, and so do renders of few samples

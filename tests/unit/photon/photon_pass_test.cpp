@@ -345,24 +345,7 @@ Flux flux_into_sphere(const StreamSet& set, const Scene& scene, int light, const
 // away (where a stream's test of the earlier targets once lost all precision and counted paths
 // twice).
 void check_partition(float floor_size) {
-    SceneDesc d;
-    d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
-    d.lights.push_back(environment(0.5f));
-    d.lights.push_back(point_light(Vec3(3.0f, 2.0f, 1.0f), 4.0f));
-    d.lights.push_back(spot_light(Vec3(-1.0f, 3.5f, 0.5f), Vec3(0.2f, -1.0f, -0.1f), 3.0f,
-                                  35.0f, 10.0f));
-    d.materials["glass"] = MaterialDesc{MaterialType::Glass, Color(1.0f), 1.5f};
-    d.materials["floor"] = MaterialDesc{MaterialType::Diffuse, Color(0.5f), 1.5f};
-    const float h = 0.5f * floor_size;
-    d.shapes.push_back(quad(Vec3(-h, 0.0f, -h), Vec3(0.0f, 0.0f, floor_size),
-                            Vec3(floor_size, 0.0f, 0.0f), "floor"));
-    ShapeDesc ball;
-    ball.type = ShapeType::Sphere;
-    ball.center = Vec3(2.0f, 0.8f, -2.0f);
-    ball.radius = 0.5f;
-    ball.material = "glass";
-    d.shapes.push_back(ball);
-    d.media.push_back(fog_box());  // [-1, 1]^3
+    const SceneDesc d = four_lights_ball_and_fog(0.0f, 0.5f * floor_size);
     const auto scene = load_scene(d);
     const StreamSet set = make_streams(*scene, true, true);
     ASSERT_EQ(set.targets.size(), 3u);  // specular, media, near media

@@ -29,26 +29,9 @@ bool enters_sphere(const Ray& ray, const Vec3& centre, double r) {
     return glm::dot(oc, d) > 0.0 && glm::dot(c, c) < r * r * glm::dot(d, d);
 }
 
-// A sun, a sky, a point light and a spot over a 16 m floor, with a glass ball and a 2 m box of
-// fog: targets specular, media and near media, all within the scene's bounding sphere.
-SceneDesc four_lights() {
-    SceneDesc d;
-    d.lights.push_back(sun(Vec3(-0.4f, -1.0f, -0.3f), 2.0f));
-    d.lights.push_back(environment(0.5f));
-    d.lights.push_back(point_light(Vec3(3.0f, 2.0f, 1.0f), 4.0f));
-    d.lights.push_back(spot_light(Vec3(-1.0f, 3.5f, 0.5f), Vec3(0.2f, -1.0f, -0.1f), 3.0f,
-                                  35.0f, 10.0f));
-    d.materials["glass"] = MaterialDesc{MaterialType::Glass, Color(1.0f), 1.5f};
-    add_ground(&d, -1.0f, 8.0f, 0.5f, "floor");
-    ShapeDesc ball;
-    ball.type = ShapeType::Sphere;
-    ball.center = Vec3(2.0f, 0.8f, -2.0f);
-    ball.radius = 0.5f;
-    ball.material = "glass";
-    d.shapes.push_back(ball);
-    d.media.push_back(homogeneous(Box3{Vec3(-1.0f), Vec3(1.0f)}, Color(1.0f), Color(0.1f)));
-    return d;
-}
+// The four lights over a 16 m floor, 1 m below the fog box: targets specular, media and near
+// media, all within the scene's bounding sphere.
+SceneDesc four_lights() { return four_lights_ball_and_fog(-1.0f, 8.0f); }
 
 // Σ over light l's streams of Φ_s × (accepted attempts / attempts): the power of all the paths
 // the streams hold together, with its standard error (streams independent).

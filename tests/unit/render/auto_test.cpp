@@ -29,13 +29,8 @@ SceneDesc small_smoke(int spp, float scale = 1.0f, int width = 64, int height = 
          "media.0.sigma_a=[" + a + "," + a + "," + a + "]"});
 }
 
-// `desc` as auto's pilot sees it: the photon integrator at auto's volume gather depth.
-SceneDesc as_piloted(const SceneDesc& desc) {
-    SceneDesc d = desc;
-    d.render.integrator = Integrator::Photon;
-    d.volume.gather_depth = resolve_run(desc).run.volume.gather_depth;
-    return d;
-}
+// `desc` as auto's pilot sees it.
+SceneDesc as_piloted(const SceneDesc& desc) { return piloted_desc(desc, resolve_run(desc)); }
 
 // auto's pick for `desc` once its media are loaded.
 RunSetup pick(const SceneDesc& desc, bool* piloted = nullptr) {
