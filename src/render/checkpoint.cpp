@@ -14,8 +14,9 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap checkpoint 2\n";
-constexpr char kOldMagic[] = "fogmap checkpoint 1\n";
+constexpr char kMagic[] = "fogmap checkpoint 3\n";
+/// Older formats' first line: "fogmap checkpoint " and their number (1 or 2: 2 had no batches).
+constexpr char kOldMagic[] = "fogmap checkpoint ";
 constexpr size_t kFields = 6;  ///< fingerprint, iterations, width, height, layered, count count
 constexpr uint64_t kMaxCheckpointBytes = uint64_t(1) << 40;  ///< the size check comes later
 
@@ -26,8 +27,7 @@ void put(std::string* out, const T& v) {
 
 /// The film values of a checkpoint of `shape`'s run: 3 per pixel, per image.
 uint64_t expected_values(const CheckpointShape& shape) {
-    return 3 * uint64_t(shape.width) * uint64_t(shape.height) *
-           (shape.layered ? 1 + kLayerCount : 1);
+    return FixedFilm::value_count(shape.width, shape.height, shape.layered);
 }
 
 /// The bytes of a checkpoint of `shape`'s run.
@@ -70,12 +70,16 @@ std::string header(const std::string& path) {
     std::string head(std::strlen(kMagic) + 8, '\0');
     in.read(head.data(), std::streamsize(head.size()));
     head.resize(size_t(in.gcount()));
-    if (head.compare(0, std::strlen(kOldMagic), kOldMagic) == 0)
+    const size_t old = std::strlen(kOldMagic);
+    if (head.compare(0, std::strlen(kMagic), kMagic) != 0 && head.size() > old + 1 &&
+        head.compare(0, old, kOldMagic) == 0 && (head[old] == '1' || head[old] == '2') &&
+        head[old + 1] == '\n')
         throw InputError(path, "format",
-                         "written by an older fogmap (format 1); remove it to start again");
+                         std::string("written by an older fogmap (format ") + head[old] +
+                             "); remove it to start again");
     if (head.compare(0, std::strlen(kMagic), kMagic) != 0)
         throw InputError(path, "format",
-                         "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 2\")");
+                         "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 3\")");
     return head;
 }
 

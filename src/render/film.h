@@ -4,8 +4,10 @@
 // fixed-point sum over iterations, the render statistics, and the per-pixel sample loop every
 // integrator runs (pixel key, N-rooks position, the sample's Rng(seed, pixel, s), non-finite
 // samples dropped, the mean). A layered film's beauty is the sum of its layers; an unlayered one
-// holds beauty alone. Deterministic: pixel (x, y), sample s draws from Rng(seed, y*width+x, s)
-// whatever the thread.
+// holds beauty alone. Beside the mean, every film keeps kBatches batch means of the beauty, from
+// which the run estimates its own error (render/error_estimate.h). Deterministic: pixel (x, y),
+// sample s draws from Rng(seed, y*width+x, s) and falls in batch s mod kBatches, whatever the
+// thread.
 
 #include "core/error.h"
 #include "core/image.h"
@@ -32,6 +34,12 @@ inline constexpr std::array kLayerNames{"direct",  "volume_single", "volume_mult
                                         "caustic", "indirect",      "emission"};
 static_assert(kLayerNames.size() == size_t(kLayerCount),
               "one name per Layer, and kLayerCount up to the last one");
+
+/// Independent batches of every film: camera sample s of a pixel falls in batch s mod kBatches
+/// (render_film: or whole units of samples; a run of many iterations batches whole iterations
+/// instead: render/pipeline.cpp), so batches are a function of the sample's index alone, the same
+/// at any thread or rank count.
+inline constexpr int kBatches = 8;
 
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {
@@ -65,23 +73,34 @@ struct RenderStats {
     int threads = 0;         ///< worker threads used
 };
 
-/// Pixel means: beauty, and for a layered film one image per Layer (beauty = their sum).
+/// Pixel means: beauty, and for a layered film one image per Layer (beauty = their sum); the
+/// beauty's mean over each batch's samples, and each batch's share of the samples (the shares
+/// sum to 1; beauty = the batch means weighted by them). The pipeline adds the estimate's
+/// per-pixel variance of the mean and the samples per pixel (empty until then).
 struct Film {
     Image beauty;
-    std::vector<Image> layers;  ///< kLayerCount images, or none
+    std::vector<Image> layers;   ///< kLayerCount images, or none
+    std::vector<Image> batches;  ///< kBatches images
+    std::array<double, kBatches> batch_share{};
+    Image variance, samples;  ///< written as EXR layers when set
 
     Film() = default;
     Film(int width, int height, bool layered)
-        : beauty(width, height), layers(layered ? kLayerCount : 0, Image(width, height)) {}
+        : beauty(width, height),
+          layers(layered ? kLayerCount : 0, Image(width, height)),
+          batches(kBatches, Image(width, height)) {}
     bool layered() const { return !layers.empty(); }
     const Image& layer(Layer l) const {
         FOGMAP_ASSERT(layered(), "an unlayered film has no layers");
         return layers[static_cast<int>(l)];
     }
-    /// The EXR's extra layers, named (none for an unlayered film).
+    /// The EXR's extra layers, named: the Layers (none for an unlayered film), then variance and
+    /// samples when set.
     std::vector<NamedImage> named_layers() const {
         std::vector<NamedImage> out;
         for (size_t l = 0; l < layers.size(); ++l) out.push_back({kLayerNames[l], &layers[l]});
+        if (!variance.pixels.empty()) out.push_back({"variance", &variance});
+        if (!samples.pixels.empty()) out.push_back({"samples", &samples});
         return out;
     }
 };
@@ -89,41 +108,58 @@ struct Film {
 /// Sums of films in 64-bit fixed point (2^-32 units per value): integer addition is exact and
 /// associative, so a sum over iterations has the same bits whatever order — or rank — the
 /// iterations were added in (docs/design.md, Determinism). Values beyond ±2^24 (radiance 1.7e7),
-/// and sums that would overflow, are clamped and counted (the pipeline warns).
+/// and sums that would overflow, are clamped and counted (the pipeline warns). Iteration i's
+/// beauty is also summed into batch (i - 1) mod kBatches: the sum of iterations 1 .. count holds
+/// count / kBatches of them in each batch, one more in the first count mod kBatches.
 struct FixedFilm {
     static constexpr double kUnit = 4294967296.0;  // 2^32
     int width = 0, height = 0;
     bool layered = false;
-    std::vector<int64_t> values;  ///< beauty, then each layer; 3 per pixel
+    std::vector<int64_t> values;  ///< beauty, each layer, each batch's beauty; 3 per pixel
     uint64_t clamped = 0;
 
-    /// Adds `film` (its shape is taken when empty).
-    void add(const Film& film) {
-        if (values.empty()) {
-            width = film.beauty.width;
-            height = film.beauty.height;
-            layered = film.layered();
-            values.assign(size_t(3) * width * height * (1 + film.layers.size()), 0);
-        }
-        size_t n = 0;
-        auto add_image = [&](const Image& img) {
+    /// The values of a sum of `width` x `height` films, layered or not.
+    static size_t value_count(int width, int height, bool layered) {
+        return size_t(3) * width * height * (1 + (layered ? kLayerCount : 0) + kBatches);
+    }
+    /// An empty sum (all zero) of films of this shape.
+    void zero(int w, int h, bool with_layers) {
+        width = w;
+        height = h;
+        layered = with_layers;
+        values.assign(value_count(w, h, with_layers), 0);
+    }
+    /// Adds iteration `index`'s `film` (its shape is taken when empty).
+    void add(const Film& film, int index) {
+        if (values.empty()) zero(film.beauty.width, film.beauty.height, film.layered());
+        auto add_image = [&](const Image& img, size_t n) {
             for (const Color& c : img.pixels)
                 for (int k = 0; k < 3; ++k, ++n) values[n] = add_saturated(values[n], c[k]);
         };
-        add_image(film.beauty);
-        for (const Image& img : film.layers) add_image(img);
+        const size_t image = size_t(3) * width * height;
+        add_image(film.beauty, 0);
+        for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
+        const int batch = (index - 1) % kBatches;
+        const uint64_t counted = clamped;  // the beauty's clamps are counted once
+        add_image(film.beauty, (1 + film.layers.size() + batch) * image);
+        clamped = counted;
     }
-    /// The mean over `count` added films.
+    /// The mean over iterations 1 .. `count`, batched by iteration.
     Film mean(int count) const {
         Film film(width, height, layered);
-        const double scale = 1.0 / (kUnit * count);
         size_t n = 0;
-        auto read_image = [&](Image& img) {
+        auto read_image = [&](Image& img, int of) {
+            const double scale = of > 0 ? 1.0 / (kUnit * of) : 0.0;
             for (Color& c : img.pixels)
                 for (int k = 0; k < 3; ++k) c[k] = static_cast<float>(values[n++] * scale);
         };
-        read_image(film.beauty);
-        for (Image& img : film.layers) read_image(img);
+        read_image(film.beauty, count);
+        for (Image& img : film.layers) read_image(img, count);
+        for (int b = 0; b < kBatches; ++b) {
+            const int in_batch = count / kBatches + (b < count % kBatches ? 1 : 0);
+            read_image(film.batches[size_t(b)], in_batch);
+            film.batch_share[size_t(b)] = double(in_batch) / count;
+        }
         return film;
     }
 
@@ -151,19 +187,31 @@ private:
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
 /// uniforms, then trace(ray, rng, state, PixelSample) -> FilmSample; non-finite samples are dropped
-/// (counted) and the film holds the mean over spp. state = make_state() per tile; state.rays,
+/// (counted) and the film holds the mean over spp, and the mean over each batch's samples (a
+/// dropped sample counts as 0 in both). state = make_state() per tile; state.rays,
 /// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
 /// *stats (may be null).
+/// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
+/// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
+/// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
-                 bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
+                 int unit, bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
+    std::array<int, kBatches> in_batch{};
+    for (int s = 0; s < spp; ++s) ++in_batch[size_t((s / unit) % kBatches)];
+    std::array<float, kBatches> batch_inv{};
+    for (int b = 0; b < kBatches; ++b) {
+        batch_inv[size_t(b)] = in_batch[size_t(b)] > 0 ? 1.0f / float(in_batch[size_t(b)]) : 0.0f;
+        film.batch_share[size_t(b)] = double(in_batch[size_t(b)]) / spp;
+    }
     const Timer timer;
     auto shade = [&](int x, int y, auto& state) {
         FilmSample sum;
+        std::array<Color, kBatches> batch{};
         uint64_t dropped = 0;
         const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
         const uint64_t jitter_key = pixel_key(seed, pixel);
@@ -178,7 +226,10 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             }
             if (!layered) sum.beauty += c.beauty;
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
+            batch[size_t((s / unit) % kBatches)] += layered ? c.layer_sum() : c.beauty;
         }
+        for (int b = 0; b < kBatches; ++b)
+            film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];
         film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
         for (int l = 0; layered && l < kLayerCount; ++l)
             film.layers[l].at(x, y) = sum.layers[l] * inv;

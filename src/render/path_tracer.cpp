@@ -478,8 +478,8 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
                  const PathPolicy& policy, TileShare tiles) {
     const PathTracer tracer(scene, settings.max_depth, policy);
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, quiet, stats,
-        [&] { return tracer.make_state(); },
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false,
+        strata_unit(settings.spp), quiet, stats, [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);

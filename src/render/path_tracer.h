@@ -43,6 +43,11 @@ namespace fogmap {
 /// at as many samples a pixel, then sees the variance per sample the render has.
 inline constexpr int kStrataGroup = 4;
 
+/// The unit of the film's batches (render_film) at `spp`: whole strata groups, so that batches
+/// are independent, when there are two or more; else single samples (the batches' variance then
+/// holds the strata's gain only in part: it comes out a little high).
+inline int strata_unit(int spp) { return spp >= 2 * kStrataGroup ? kStrataGroup : 1; }
+
 /// Adjoint-driven splitting at medium vertices (after Vorba & Křivánek 2016; docs/design.md,
 /// Guided path tracing): after the direct light at a medium vertex x, the path's expected
 /// contribution β (L̃(x) + D) — L̃ the light to come from the volume map (AdjointGrid), D the

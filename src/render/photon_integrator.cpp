@@ -205,8 +205,10 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
     return out;
 }
 
+int map_step(int spp, int map_spp) { return map_spp > 0 ? std::max(1, spp / map_spp) : 1; }
+
 float map_weight(const PixelSample& ps, int map_spp) {
-    const int step = map_spp > 0 ? std::max(1, ps.spp / map_spp) : 1;
+    const int step = map_step(ps.spp, map_spp);
     if (step == 1) return 1.0f;
     const int offset = static_cast<int>(mix64(ps.key ^ stream::kMapSamples) % uint64_t(step));
     return (ps.s + offset) % step == 0 ? static_cast<float>(step) : 0.0f;
@@ -218,7 +220,8 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true, quiet, stats,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
+        map_step(settings.spp, settings.map_spp), quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));

@@ -68,6 +68,8 @@ private:
 /// unbiased), and the chosen samples' N-rooks columns are stratified over the pixel. 0 for the
 /// others.
 float map_weight(const PixelSample& ps, int map_spp);
+/// map_weight's step: every block of step consecutive samples holds one chosen sample.
+int map_step(int spp, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
 /// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).

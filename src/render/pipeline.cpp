@@ -7,6 +7,7 @@
 
 #include "photon/photon_pass.h"
 #include "render/camera.h"
+#include "render/error_estimate.h"
 #include "render/gather_params.h"
 #include "render/metrics.h"
 #include "render/path_tracer.h"
@@ -42,7 +43,7 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     return out;
 }
 
-/// The bits of every value of `film` (beauty, then each layer), one integer each.
+/// The bits of every value of `film` (beauty, each layer, each batch), one integer each.
 std::vector<int64_t> film_bits(const Film& film) {
     std::vector<int64_t> bits;
     auto put = [&](const Image& image) {
@@ -55,6 +56,7 @@ std::vector<int64_t> film_bits(const Film& film) {
     };
     put(film.beauty);
     for (const Image& layer : film.layers) put(layer);
+    for (const Image& batch : film.batches) put(batch);
     return bits;
 }
 
@@ -70,6 +72,7 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     };
     get(film->beauty);
     for (Image& layer : film->layers) get(layer);
+    for (Image& batch : film->batches) get(batch);
 }
 
 /// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
@@ -150,6 +153,7 @@ private:
     void gather_to_root();
     bool reduce();
     void finish_report();
+    void estimate();
     RenderSettings iteration_settings(int i) const;
 
     const RunSetup& setup_;
@@ -375,7 +379,7 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
 /// Adds an iteration's film and counts to the run's, and its line to the report.
 void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it) {
     if (progressive_)
-        sum_.add(film);
+        sum_.add(film, it.index);
     else
         out_.film = std::move(film);
     add_phase(&report_, "render", stats.render_s);
@@ -423,8 +427,7 @@ bool RunLoop::last_round(int round, double loop_start_s) {
 void RunLoop::gather_to_root() {
     counts_.clamped = int64_t(sum_.clamped);
     std::vector<int64_t> c = counts_.pack();
-    if (sum_.values.empty())
-        sum_.add(Film(desc_.camera.width, desc_.camera.height, setup_.layered()));
+    if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, setup_.layered());
     if (ranks_) {
         const Timer reduce;
         ranks_->sum_to_root(&c);
@@ -509,6 +512,34 @@ void RunLoop::finish_report() {
     r.spp = desc_.render.spp * (progressive_ ? int(counts_.iterations) : 1);
     r.photons_capped_power /= std::max(own_, 1);  // the mean share over rank 0's iterations
     r.mean = out_.film.beauty.mean();
+    estimate();
+}
+
+/// The error estimate from the film's batches, its variance and samples layers, and what it
+/// cannot see: a photon method's bias, and its one map's noise when every sample read it.
+void RunLoop::estimate() {
+    if (o_.silent) return;  // auto's pilot runs
+    const Timer timer;
+    ErrorEstimate e = estimate_error(out_.film);
+    ErrorReport& r = report_.error;
+    r.valid = e.valid;
+    r.why = progressive_ ? "needs at least 2 iterations" : "needs at least 2 samples per pixel";
+    r.rel_mse = e.rel_mse.value;
+    r.lo = e.rel_mse.lo;
+    r.hi = e.rel_mse.hi;
+    r.batches = e.batches;
+    r.batched_by = progressive_ ? "iterations" : "samples";
+    r.tail_share = e.tail_share;
+    r.tail = e.tail;
+    if (setup_.photon())
+        r.excludes = progressive_ ? "the photon maps' bias (their gather radii blur the light)"
+                                  : "the photon map's own noise and its bias (one map serves "
+                                    "every sample; its gather radius blurs the light)";
+    out_.film.variance = std::move(e.variance);
+    out_.film.samples = Image(report_.width, report_.height);
+    std::fill(out_.film.samples.pixels.begin(), out_.film.samples.pixels.end(),
+              Color(float(report_.spp)));
+    add_phase(&report_, "estimate", timer.seconds());
 }
 
 PipelineResult RunLoop::run() {

@@ -19,6 +19,40 @@ nlohmann::json radii_json(const IterationReport::Radii& r) {
     return {r.global, r.caustic, r.volume};
 }
 
+std::string general(double v) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    return buf;
+}
+
+/// "error estimate: relMSE X [lo, hi] (95%) ..." and the tail's line, or why there is none.
+std::string error_text(const ErrorReport& e) {
+    if (!e.valid) return "error estimate: none (" + e.why + ")\n";
+    std::string text = "error estimate: relMSE " + general(e.rel_mse) + " [" + general(e.lo) +
+                       ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
+                       " batches of " + e.batched_by + "\n";
+    if (!e.excludes.empty()) text += "error estimate: not in it: " + e.excludes + "\n";
+    if (e.tail)
+        text += "error estimate: the brightest 0.1% of pixels carry " +
+                fixed(100.0 * e.tail_share, 0) +
+                "% of it: fireflies, and more may come that no estimate from samples can see\n";
+    return text;
+}
+
+nlohmann::json error_json(const ErrorReport& e) {
+    if (!e.valid) return {{"valid", false}, {"why", e.why}};
+    return {{"valid", true},
+            {"rel_mse", e.rel_mse},
+            {"lo", e.lo},
+            {"hi", e.hi},
+            {"confidence", 0.95},
+            {"batches", e.batches},
+            {"batched_by", e.batched_by},
+            {"tail_share", e.tail_share},
+            {"tail", e.tail},
+            {"excludes", e.excludes}};
+}
+
 }  // namespace
 
 void add_phase(Report* report, const std::string& name, double s) {
@@ -73,6 +107,7 @@ std::string report_text(const Report& r) {
             << (it.rel_mse >= 0.0 ? ", relmse " + nlohmann::json(it.rel_mse).dump() : "") << "\n";
     for (const std::string& w : r.warnings) out << "warning: " << w << "\n";
     out << "image mean: " << r.mean << "\n";
+    out << error_text(r.error);
     if (!r.reference.empty())
         out << "error vs " << r.reference << ": rmse " << r.rmse << ", relmse " << r.rel_mse
             << ", bias " << r.bias << "\n";
@@ -138,6 +173,7 @@ nlohmann::json report_json(const Report& r) {
             {"mean", r.mean},
             {"iterations", iterations},
             {"warnings", r.warnings},
+            {"error_estimate", error_json(r.error)},
             {"reference", r.reference.empty() ? nlohmann::json()
                                               : nlohmann::json{{"file", r.reference},
                                                                {"rmse", r.rmse},

@@ -36,6 +36,18 @@ struct IterationReport {
     size_t photon_bytes = 0;  ///< memory of this iteration's maps
 };
 
+/// The run's estimate of its own error (render/error_estimate.h): relMSE per value.
+struct ErrorReport {
+    bool valid = false;                        ///< false: too few batches (why says)
+    std::string why;                           ///< when not valid, why
+    double rel_mse = 0.0, lo = 0.0, hi = 0.0;  ///< the estimate and its 95% interval
+    int batches = 0;                           ///< batches holding samples
+    std::string batched_by;                    ///< "samples" (of a pixel) or "iterations"
+    double tail_share = 0.0;                   ///< share of it the top 0.1% of pixels carry
+    bool tail = false;                         ///< tail_share above one half: fireflies
+    std::string excludes;                      ///< the errors it cannot see ("": none known)
+};
+
 struct Report {
     std::string scene;                                     ///< scene file
     nlohmann::json settings;                               ///< effective render settings
@@ -65,6 +77,7 @@ struct Report {
     std::vector<IterationReport> iterations;
     std::vector<std::string> warnings;  ///< also printed on stderr as they arise
     double mean = 0.0;                  ///< mean of the beauty image over pixels and channels
+    ErrorReport error;                  ///< estimated without a reference
     std::string reference;              ///< reference image, "" = none
     double rmse = 0.0, rel_mse = 0.0, bias = 0.0;  ///< against the reference
 };

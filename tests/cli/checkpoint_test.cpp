@@ -19,8 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The layout of "fogmap checkpoint 2": the header line, then 8-byte fields.
-constexpr size_t kHeader = 20;  // "fogmap checkpoint 2\n"
+// The layout of "fogmap checkpoint 3": the header line, then 8-byte fields.
+constexpr size_t kHeader = 20;  // "fogmap checkpoint 3\n"
 constexpr size_t kIterations = kHeader + 8, kWidth = kHeader + 16, kCounts = kHeader + 40;
 constexpr size_t kFirstCount = kHeader + 48;
 
@@ -105,6 +105,7 @@ TEST_F(Checkpoints, CorruptOrForeignFieldsAreRefusedByName) {
     expect_refused(with_field(good_, kFirstCount, 7), "counts");        // its own iterations: 2
     expect_refused(with_field(good_, kFirstCount + 16, -1), "counts");  // a negative count
     expect_refused("fogmap checkpoint 1\n" + good_.substr(kHeader), "format");
+    expect_refused("fogmap checkpoint 2\n" + good_.substr(kHeader), "format");
     expect_refused("not a checkpoint", "format");
     expect_refused(with_field(good_, kHeader, 12345), "fingerprint");
     EXPECT_EQ(field(good_, kFirstCount), 2);

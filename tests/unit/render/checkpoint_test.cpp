@@ -18,7 +18,7 @@ namespace fogmap {
 namespace {
 
 constexpr uint64_t kFingerprint = 0x0123456789ABCDEFull;
-constexpr char kMagic[] = "fogmap checkpoint 2\n";
+constexpr char kMagic[] = "fogmap checkpoint 3\n";
 
 /// A run of at most 10 iterations, by default 3 x 2 and layered.
 CheckpointShape shape(bool layered = true, int width = 3, int height = 2) {
@@ -42,7 +42,7 @@ Checkpoint hand_built(bool layered = true, int width = 3, int height = 2) {
     c.sum.width = width;
     c.sum.height = height;
     c.sum.layered = layered;
-    c.sum.values.resize(size_t(3 * width * height * (layered ? 1 + kLayerCount : 1)));
+    c.sum.values.resize(size_t(3 * width * height * (1 + (layered ? kLayerCount : 0) + kBatches)));
     for (size_t i = 0; i < c.sum.values.size(); ++i)
         c.sum.values[i] =
             int64_t((uint64_t(i) * 0x9E3779B97F4A7C15ull) ^ (i % 3 ? 0 : uint64_t(1) << 63));
@@ -102,8 +102,8 @@ TEST(Checkpoint, RoundTripOfAFilmSumGivesTheSameMean) {
     c.iterations = 2;
     c.counts[0] = 2;
     c.sum = FixedFilm{};
-    c.sum.add(film);
-    c.sum.add(film);
+    c.sum.add(film, 1);
+    c.sum.add(film, 2);
     const test::TempDir dir("fogmap_checkpoint");
     const Checkpoint r = read_checkpoint(dir.write("a.ckpt", checkpoint_bytes(c)), shape(false));
     EXPECT_EQ(r.sum.mean(r.iterations).beauty.pixels, film.beauty.pixels);
@@ -208,7 +208,7 @@ TEST(Checkpoint, ACountOfValuesThatDisagreesIsRefused) {
     // The count of values stands after the counts; the file's size fixes how many there are.
     const test::TempDir dir("fogmap_checkpoint");
     const size_t values_field = 6 + kRunCounts;
-    const int64_t values = 3 * 3 * 2 * (1 + kLayerCount);
+    const int64_t values = 3 * 3 * 2 * (1 + kLayerCount + kBatches);
     refusal(dir, with_field(values_field, values - 1));
 }
 

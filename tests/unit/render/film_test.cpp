@@ -78,11 +78,11 @@ TEST(FixedFilm, MeanOfGridValuesIsTheExactMean) {
                    float(f) / 256.0f;
         }));
     FixedFilm sum;
-    for (const Film& f : films) sum.add(f);
+    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1);
     EXPECT_EQ(sum.width, w);
     EXPECT_EQ(sum.height, h);
     EXPECT_TRUE(sum.layered);
-    EXPECT_EQ(sum.values.size(), size_t(3 * w * h * (1 + kLayerCount)));
+    EXPECT_EQ(sum.values.size(), size_t(3 * w * h * (1 + kLayerCount + kBatches)));
     EXPECT_EQ(sum.clamped, 0u);
     const Film mean = sum.mean(count);
     ASSERT_TRUE(mean.layered());
@@ -109,7 +109,7 @@ TEST(FixedFilm, MeanOfAnyValuesIsTheMeanToRounding) {
             return std::sin(0.37f * float(p * 3 + c) + float(f)) * 1000.0f + 0.1f * float(f);
         }));
     FixedFilm sum;
-    for (const Film& f : films) sum.add(f);
+    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1);
     const Film mean = sum.mean(count);
     EXPECT_FALSE(mean.layered());
     for (size_t p = 0; p < mean.beauty.pixels.size(); ++p)
@@ -122,6 +122,29 @@ TEST(FixedFilm, MeanOfAnyValuesIsTheMeanToRounding) {
         }
 }
 
+TEST(FixedFilm, IterationIGoesToBatchIMinusOneModKAndItsMeanIsTheBatchsMean) {
+    // 19 iterations, film f's every value f: batch b holds iterations b + 1, b + 1 + 8, ... (3 in
+    // batches 0-2, 2 in the others), its mean their mean index, its share its count / 19.
+    const int count = 19;
+    FixedFilm sum;
+    for (int f = 1; f <= count; ++f)
+        sum.add(film_of(2, 2, false, [&](int, int, int) { return float(f); }), f);
+    const Film mean = sum.mean(count);
+    double shares = 0.0, weighted = 0.0;
+    for (int b = 0; b < kBatches; ++b) {
+        double indices = 0.0;
+        int n = 0;
+        for (int i = b + 1; i <= count; i += kBatches, ++n) indices += i;
+        EXPECT_EQ(mean.batch_share[b], double(n) / count) << "batch " << b;
+        EXPECT_FLOAT_EQ(mean.batches[b].at(1, 1).y, float(indices / n)) << "batch " << b;
+        shares += mean.batch_share[b];
+        weighted += mean.batch_share[b] * mean.batches[b].at(1, 1).y;
+    }
+    EXPECT_DOUBLE_EQ(shares, 1.0);
+    EXPECT_NEAR(weighted, mean.beauty.at(1, 1).y, 1e-5);  // (1 + ... + 19) / 19 = 10
+    EXPECT_FLOAT_EQ(mean.beauty.at(0, 0).x, 10.0f);
+}
+
 TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
     // Floats that a float sum would round differently in another order.
     std::vector<Film> films;
@@ -132,11 +155,11 @@ TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
         }));
     std::vector<int> order{0, 1, 2, 3, 4};
     FixedFilm reference;
-    for (int i : order) reference.add(films[i]);
+    for (int i : order) reference.add(films[i], i + 1);
     int permutations = 0;
     while (std::next_permutation(order.begin(), order.end())) {
         FixedFilm sum;
-        for (int i : order) sum.add(films[i]);
+        for (int i : order) sum.add(films[i], i + 1);
         ASSERT_EQ(sum.values, reference.values);
         ++permutations;
     }
@@ -149,7 +172,7 @@ TEST(FixedFilm, ValuesBeyondTwoToThe24AreClampedAndCounted) {
     film.beauty.at(0, 0) = Color(kMax, -kMax, 3.0f);  // at the limit: kept
     film.beauty.at(1, 0) = Color(2.0f * kMax, -std::numeric_limits<float>::infinity(), 1e30f);
     FixedFilm sum;
-    sum.add(film);
+    sum.add(film, 1);
     EXPECT_EQ(sum.clamped, 3u);
     const Film mean = sum.mean(1);
     EXPECT_EQ(mean.beauty.at(0, 0), Color(kMax, -kMax, 3.0f));
@@ -163,7 +186,7 @@ TEST(FixedFilm, SumsThatWouldOverflowSaturateAndAreCounted) {
     Film film(1, 1, false);
     film.beauty.at(0, 0) = Color(16777216.0f, -16777216.0f, 1.0f);
     FixedFilm sum;
-    for (int i = 0; i < 130; ++i) sum.add(film);
+    for (int i = 0; i < 130; ++i) sum.add(film, i + 1);
     EXPECT_EQ(sum.clamped, 5u);
     EXPECT_EQ(sum.values[0], INT64_MAX);
     EXPECT_EQ(sum.values[1], INT64_MIN);
@@ -191,7 +214,7 @@ CameraDesc camera_desc() {
 
 Film render_made_up(bool layered, TileShare share, RenderStats* stats) {
     return render_film(
-        Camera(camera_desc()), kSpp, 99, share, layered, true, stats, [] { return State{}; },
+        Camera(camera_desc()), kSpp, 99, share, layered, 1, true, stats, [] { return State{}; },
         [&](const Ray&, Rng&, State& state, const PixelSample& ps) {
             ++state.rays;
             state.lookups += 2;
@@ -205,6 +228,19 @@ Film render_made_up(bool layered, TileShare share, RenderStats* stats) {
             }
             return f;
         });
+}
+
+TEST(RenderFilm, SampleSFallsInBatchSModKAndADroppedSampleCountsAsZero) {
+    // kSpp = 4 samples: batch s holds sample s alone (its value (x, y, s)), batches 4-7 none.
+    const Film film = render_made_up(false, TileShare{}, nullptr);
+    for (int b = 0; b < kBatches; ++b)
+        EXPECT_EQ(film.batch_share[b], b < kSpp ? 1.0 / kSpp : 0.0) << "batch " << b;
+    for (int b = 0; b < kSpp; ++b) {
+        EXPECT_EQ(film.batches[b].at(5, 7), Color(5.0f, 7.0f, float(b))) << "batch " << b;
+        // Pixel (17, 3)'s sample 2 is infinite: dropped, its batch holds 0.
+        EXPECT_EQ(film.batches[b].at(17, 3), b == 2 ? Color(0.0f) : Color(17.0f, 3.0f, float(b)));
+    }
+    EXPECT_EQ(film.batches[kSpp].at(5, 7), Color(0.0f));
 }
 
 TEST(RenderFilm, PixelsHoldTheMeanOverSppAndLayersAddUpToTheBeauty) {

@@ -1,0 +1,164 @@
+#include "render/error_estimate.h"
+
+#include "render/metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+namespace fogmap {
+
+namespace {
+
+constexpr int kBlock = 16;         ///< pixels a side of the blocks taken as independent
+constexpr double kZ95 = 1.959964;  ///< two-sided 95% quantile of the normal distribution
+/// The neighbourhood whose mean stands for a pixel's in y²: 5 x 5 less the pixel (calibrated:
+/// docs/error-estimate.md).
+constexpr int kNeighbours = 2;
+
+/// The batches of `film` that hold samples.
+std::vector<int> active_batches(const Film& film) {
+    std::vector<int> active;
+    for (int b = 0; b < kBatches; ++b)
+        if (film.batch_share[size_t(b)] > 0.0) active.push_back(b);
+    return active;
+}
+
+/// The mean of every other of `film`'s `active` batches from `parity` on, by their shares.
+Image half_mean(const Film& film, const std::vector<int>& active, size_t parity) {
+    Image out(film.beauty.width, film.beauty.height);
+    double weight = 0.0;
+    for (size_t i = parity; i < active.size(); i += 2) weight += film.batch_share[active[i]];
+    for (size_t i = parity; i < active.size(); i += 2) {
+        const float w = float(film.batch_share[active[i]] / weight);
+        const Image& batch = film.batches[active[i]];
+        for (size_t p = 0; p < out.pixels.size(); ++p) out.pixels[p] += w * batch.pixels[p];
+    }
+    return out;
+}
+
+/// Each pixel's mean over its neighbours within kNeighbours pixels (a square less the pixel;
+/// fewer at the edges).
+Image neighbour_mean(const Image& in) {
+    Image out(in.width, in.height);
+    for (int y = 0; y < in.height; ++y)
+        for (int x = 0; x < in.width; ++x) {
+            Color sum(0.0f);
+            int n = 0;
+            for (int v = std::max(0, y - kNeighbours);
+                 v <= std::min(in.height - 1, y + kNeighbours); ++v)
+                for (int u = std::max(0, x - kNeighbours);
+                     u <= std::min(in.width - 1, x + kNeighbours); ++u)
+                    if (u != x || v != y) {
+                        sum += in.at(u, v);
+                        ++n;
+                    }
+            out.at(x, y) = n > 0 ? sum / float(n) : in.at(x, y);
+        }
+    return out;
+}
+
+/// relMSE's weight 1 / (y² + floor) per pixel and channel, y² the product of two independent
+/// halves' neighbour means: its expectation is the neighbourhood's mean squared, with no noise
+/// term added, and it does not depend on the pixel's own samples (a firefly would weigh its own
+/// pixel's error down).
+struct Weights {
+    Image a, b;
+    Weights(const Film& film, const std::vector<int>& active)
+        : a(neighbour_mean(half_mean(film, active, 0))),
+          b(neighbour_mean(half_mean(film, active, 1))) {}
+    double operator()(size_t p, int c) const {
+        const double y2 = std::max(double(a.pixels[p][c]) * b.pixels[p][c], 0.0);
+        return relative_squared_error(1.0, std::sqrt(y2));
+    }
+};
+
+/// The variance of the mean of value (p, c) of `film` from its `active` batches; adds to each of
+/// `draws` its batch's scaled squared deviation, whose expectation is that variance (one draw of
+/// the squared error of an image), times `weight`.
+double pixel_variance(const Film& film, const std::vector<int>& active, size_t p, int c,
+                      double weight, double* draws) {
+    double v = 0.0;
+    const double x = film.beauty.pixels[p][c];
+    for (size_t i = 0; i < active.size(); ++i) {
+        const double share = film.batch_share[size_t(active[i])];
+        const double d = double(film.batches[size_t(active[i])].pixels[p][c]) - x;
+        v += share * d * d;
+        draws[i] += d * d * share / (1.0 - share) * weight;
+    }
+    return v / double(active.size() - 1);
+}
+
+double sample_variance(const double* g, size_t n) {
+    double mean = 0.0, sum = 0.0;
+    for (size_t i = 0; i < n; ++i) mean += g[i];
+    mean /= double(n);
+    for (size_t i = 0; i < n; ++i) sum += (g[i] - mean) * (g[i] - mean);
+    return sum / double(n - 1);
+}
+
+/// The share of the sum of `parts` that its largest kTailPixels carry.
+double top_share(std::vector<double> parts) {
+    double total = 0.0;
+    for (double v : parts) total += v;
+    if (!(total > 0.0)) return 0.0;
+    const size_t top = std::max<size_t>(1, size_t(std::ceil(kTailPixels * double(parts.size()))));
+    std::nth_element(parts.begin(), parts.begin() + long(top - 1), parts.end(),
+                     std::greater<double>());
+    double sum = 0.0;
+    for (size_t i = 0; i < top; ++i) sum += parts[i];
+    return sum / total;
+}
+
+/// The estimate, its per-pixel variance and the tail flag.
+void estimate_variance(const Film& film, const std::vector<int>& active, const Weights& weight,
+                       ErrorEstimate* e) {
+    const Image& x = film.beauty;
+    const size_t k = active.size();
+    const int bx = (x.width + kBlock - 1) / kBlock, by = (x.height + kBlock - 1) / kBlock;
+    // Per block and batch: the draws of the block's relative squared error.
+    std::vector<double> draws(size_t(bx) * by * k, 0.0), parts(x.pixels.size(), 0.0);
+    // Per block, the variance of one draw were the values normal: 2 (v w)² a value. It stands in
+    // where the draws cannot tell (two batches deviate alike) or tell less.
+    std::vector<double> gauss(size_t(bx) * by, 0.0);
+    e->variance = Image(x.width, x.height);
+    double total = 0.0;
+    for (int py = 0; py < x.height; ++py)
+        for (int px = 0; px < x.width; ++px) {
+            const size_t p = size_t(py) * x.width + px;
+            double* const block = &draws[(size_t(py / kBlock) * bx + px / kBlock) * k];
+            for (int c = 0; c < 3; ++c) {
+                const double w = weight(p, c), v = pixel_variance(film, active, p, c, w, block);
+                e->variance.pixels[p][c] = float(v);
+                parts[p] += v * w;
+                gauss[size_t(py / kBlock) * bx + px / kBlock] += 2.0 * (v * w) * (v * w);
+            }
+            total += parts[p];
+        }
+    // The estimate is sum_i a_i G_i over the batches' draws G: its variance is var(G) sum a_i²;
+    // this image's error is one more draw.
+    double a2 = 0.0, var = 0.0;
+    for (int i : active) a2 += std::pow((1.0 - film.batch_share[size_t(i)]) / double(k - 1), 2);
+    for (size_t t = 0; t < draws.size(); t += k)
+        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]);
+    const double values = 3.0 * double(x.pixels.size()), half = kZ95 * std::sqrt(var * (1.0 + a2));
+    e->rel_mse = {total / values, std::max(0.0, (total - half) / values), (total + half) / values};
+    e->tail_share = top_share(std::move(parts));
+    e->tail = e->tail_share > kTailShare;
+}
+
+}  // namespace
+
+ErrorEstimate estimate_error(const Film& film) {
+    ErrorEstimate e;
+    const std::vector<int> active = active_batches(film);
+    e.batches = int(active.size());
+    if (active.size() < 2 || film.beauty.pixels.empty()) return e;
+    e.valid = true;
+    const Weights weight(film, active);
+    estimate_variance(film, active, weight, &e);
+    return e;
+}
+
+}  // namespace fogmap

@@ -1,0 +1,155 @@
+// The error estimate (render/error_estimate.h) on films of known noise: pixel values y plus normal
+// noise of a known deviation, batched as render_film batches samples. The expected relMSE is then
+// analytic, and each film's true error is known, so the estimate and its interval are checked
+// against both.
+
+#include "render/error_estimate.h"
+#include "core/rng.h"
+#include "render/metrics.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+constexpr int kW = 64, kH = 48;
+
+/// A smooth image with a black band (relMSE's floor) on the left.
+Image truth() {
+    Image y(kW, kH);
+    for (int py = 0; py < kH; ++py)
+        for (int px = 0; px < kW; ++px) {
+            const float v = px < 8 ? 0.0f : 0.2f + 0.8f * float(px) / kW * float(py + 8) / kH;
+            y.at(px, py) = Color(v, 0.5f * v, 2.0f * v);
+        }
+    return y;
+}
+
+/// The per-sample deviation: 0.5 in a square, 0.1 elsewhere.
+float sigma(int px, int py) { return px >= 20 && px < 40 && py >= 10 && py < 30 ? 0.5f : 0.1f; }
+
+float normal(Rng& rng) {
+    const float u = std::max(rng.uniform(), 1e-12f), v = rng.uniform();
+    return std::sqrt(-2.0f * std::log(u)) * std::cos(6.2831853f * v);
+}
+
+/// The film of `spp` samples y + sigma·N(0, 1) a value, sample s in batch s mod kBatches;
+/// `sample` may change a sample (pixel p, sample s, channel value) before it is added.
+Film noisy_film(const Image& y, int spp, uint64_t seed,
+                const std::function<float(size_t, int, float)>& sample = {}) {
+    Film film(kW, kH, false);
+    std::array<int, kBatches> n{};
+    for (int s = 0; s < spp; ++s) ++n[size_t(s % kBatches)];
+    for (int b = 0; b < kBatches; ++b) film.batch_share[size_t(b)] = double(n[size_t(b)]) / spp;
+    for (size_t p = 0; p < y.pixels.size(); ++p) {
+        const float sd = sigma(int(p % kW), int(p / kW));
+        for (int s = 0; s < spp; ++s) {
+            Rng rng(seed, p, uint64_t(s));
+            for (int c = 0; c < 3; ++c) {
+                float v = y.pixels[p][c] + sd * normal(rng);
+                if (sample) v = sample(p, s, v);
+                film.beauty.pixels[p][c] += v / float(spp);
+                film.batches[size_t(s % kBatches)].pixels[p][c] +=
+                    v / float(n[size_t(s % kBatches)]);
+            }
+        }
+    }
+    return film;
+}
+
+/// The expected relMSE of such a film: sigma² / spp over y² + floor, averaged.
+double analytic_rel_mse(const Image& y, int spp) {
+    double sum = 0.0;
+    for (size_t p = 0; p < y.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            const double sd = sigma(int(p % kW), int(p / kW));
+            sum += relative_squared_error(sd * sd / spp, y.pixels[p][c]);
+        }
+    return sum / (3.0 * double(y.pixels.size()));
+}
+
+struct Calibration {
+    int covered = 0, runs = 0;
+    double median_ratio = 0.0;  ///< estimate / analytic expectation
+};
+
+Calibration calibrate(int spp, int runs) {
+    const Image y = truth();
+    const double expected = analytic_rel_mse(y, spp);
+    Calibration c;
+    std::vector<double> ratios;
+    for (int seed = 1; seed <= runs; ++seed) {
+        const Film film = noisy_film(y, spp, uint64_t(seed));
+        const ErrorEstimate e = estimate_error(film);
+        EXPECT_TRUE(e.valid);
+        const double truth_now = image_error(film.beauty, y).rel_mse;
+        c.covered += e.rel_mse.lo <= truth_now && truth_now <= e.rel_mse.hi;
+        ratios.push_back(e.rel_mse.value / expected);
+        ++c.runs;
+    }
+    std::sort(ratios.begin(), ratios.end());
+    c.median_ratio = ratios[ratios.size() / 2];
+    return c;
+}
+
+TEST(ErrorEstimate, MatchesTheAnalyticErrorAndItsIntervalHoldsTheTrueOne) {
+    // 16 spp: 8 batches of 2; 12 spp: batches of 2 and of 1 (shares 2/12 and 1/12).
+    for (int spp : {16, 12}) {
+        const Calibration c = calibrate(spp, 30);
+        EXPECT_GE(c.covered, 27) << spp << " spp: the 95% interval held the true error in "
+                                 << c.covered << " of " << c.runs;
+        EXPECT_NEAR(c.median_ratio, 1.0, 0.08) << spp << " spp";
+        std::printf(
+            "%d spp: interval held the true error %d / %d, median estimate / expected %.3f\n", spp,
+            c.covered, c.runs, c.median_ratio);
+    }
+}
+
+TEST(ErrorEstimate, TwoBatchesAreEnoughAndOneIsNot) {
+    const Image y = truth();
+    const ErrorEstimate two = estimate_error(noisy_film(y, 2, 7));
+    EXPECT_TRUE(two.valid);
+    EXPECT_EQ(two.batches, 2);
+    // Within [1, 1.3]: at 2 spp y² comes from halves of one sample each, noisy enough for 1 / y²
+    // to come out high on average (the estimate errs high).
+    const double ratio = two.rel_mse.value / analytic_rel_mse(y, 2);
+    EXPECT_GE(ratio, 1.0);
+    EXPECT_LE(ratio, 1.3);
+    EXPECT_LT(two.rel_mse.lo, two.rel_mse.value);  // an interval, though batches deviate alike
+    const ErrorEstimate one = estimate_error(noisy_film(y, 1, 7));
+    EXPECT_FALSE(one.valid);
+    EXPECT_EQ(one.batches, 1);
+}
+
+TEST(ErrorEstimate, VarianceLayerIsEachPixelsVarianceOfTheMean) {
+    // Averaged over the square's 400 pixels and 3 channels, 0.5² / 16.
+    const Film film = noisy_film(truth(), 16, 3);
+    const ErrorEstimate e = estimate_error(film);
+    double sum = 0.0;
+    for (int py = 10; py < 30; ++py)
+        for (int px = 20; px < 40; ++px)
+            for (int c = 0; c < 3; ++c) sum += e.variance.at(px, py)[c];
+    EXPECT_NEAR(sum / 1200.0, 0.25 / 16.0, 0.1 * 0.25 / 16.0);
+}
+
+TEST(ErrorEstimate, APlantedFireflyRaisesTheTailFlag) {
+    const Image y = truth();
+    const ErrorEstimate plain = estimate_error(noisy_film(y, 16, 5));
+    EXPECT_FALSE(plain.tail) << plain.tail_share;
+    // One sample of one pixel 10^4 times brighter.
+    const Film fly = noisy_film(y, 16, 5, [](size_t p, int s, float v) {
+        return p == size_t(30 * kW + 50) && s == 3 ? v * 1e4f : v;
+    });
+    const ErrorEstimate flagged = estimate_error(fly);
+    EXPECT_TRUE(flagged.tail) << flagged.tail_share;
+    EXPECT_GT(flagged.rel_mse.hi, plain.rel_mse.hi);
+}
+
+}  // namespace
+}  // namespace fogmap
