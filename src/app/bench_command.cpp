@@ -1,7 +1,8 @@
 // `fogmap bench SCENE --sweep KEY=V1,V2,... --csv OUT.csv --plot OUT.svg`: renders the cross
 // product of the sweeps and the path tracer at a few sample counts, measures each against a
-// reference, writes one CSV row per run, an SVG plot of relMSE against time with the Pareto
-// frontier, and prints the frontier (docs/measurements.md). Every setting is checked
+// reference (without one, takes each run's own error estimate), writes one CSV row per run, an
+// SVG plot of relMSE against time with the Pareto frontier, and prints the frontier
+// (docs/measurements.md). Every setting is checked
 // before the first render; the CSV and SVG appear together at the end (temp file + rename).
 
 #include "app/commands.h"
@@ -196,17 +197,19 @@ LogLogPlot make_plot(const std::vector<BenchRow>& rows, const BenchArgs& args,
                  std::to_string(base.camera.width) + "x" + std::to_string(base.camera.height) +
                  "), relMSE against total time";
     plot.x_label = "total wall time per run (s, log)";
-    plot.y_label = "relMSE vs reference (log)";
+    const bool measured = rows.empty() || rows.front().measured;
+    plot.y_label = measured ? "relMSE vs reference (log)" : "estimated relMSE, no reference (log)";
+    if (!measured) plot.title += " (estimated error)";
     PlotSeries photon{"photon map runs", "#1f77b4", PlotMarker::Circle, PlotLine::None, {}};
     PlotSeries path{
         "path tracer (spp sweep)", "#2ca02c", PlotMarker::Square, PlotLine::Straight, {}};
     std::vector<double> t, e;
     for (const BenchRow& r : rows) {
         PlotSeries& s = r.method == "path" ? path : photon;
-        s.points.push_back({r.total_s, r.rel_mse});
+        s.points.push_back({r.total_s, r.error()});
         if (r.method != "path") {
             t.push_back(r.total_s);
-            e.push_back(r.rel_mse);
+            e.push_back(r.error());
         }
     }
     std::sort(path.points.begin(), path.points.end(),
@@ -228,9 +231,9 @@ int run_bench(const BenchArgs& args, Ranks* world) {
         throw InputError("", "--plot", "'" + args.plot + "' does not end in .svg");
     if (args.repeat < 1)
         throw InputError("", "--repeat", "expected >= 1, found " + std::to_string(args.repeat));
-    if (args.reference.empty() == (args.reference_spp == 0))
+    if (!args.reference.empty() && args.reference_spp != 0)
         throw InputError("", "--reference",
-                         "expected exactly one of --reference REF.exr or --reference-spp N");
+                         "expected at most one of --reference REF.exr or --reference-spp N");
     if (args.reference.empty() && args.reference_spp < 0)
         throw InputError("", "--reference-spp",
                          "expected >= 1, found " + std::to_string(args.reference_spp));
@@ -303,7 +306,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
     if (!args.reference.empty()) {
         reference = read_exr(args.reference);
         check_finite(reference, args.reference);
-    } else {
+    } else if (args.reference_spp > 0) {
         // Cache name: FNV-1a of the reference's full scene JSON (to_json: every setting, with
         // integrator path, spp N, the reference seed, threads 0) plus the absolute folder that
         // relative files resolve against; so any change of scene or settings renders anew.
@@ -325,10 +328,12 @@ int run_bench(const BenchArgs& args, Ranks* world) {
     }
     const int ref_width = reference_desc ? reference_desc->camera.width : reference.width;
     const int ref_height = reference_desc ? reference_desc->camera.height : reference.height;
+    const bool with_reference = !reference_file.empty();  // else: the runs' own estimates
     for (size_t i = 0; i < runs.size(); ++i) {
-        check_size(ref_width, ref_height, reference_file, runs[i],
-                   "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
-        check_run_memory(resolve_run(runs[i]), true);
+        if (with_reference)
+            check_size(ref_width, ref_height, reference_file, runs[i],
+                       "run " + std::to_string(i + 1) + " of " + std::to_string(runs.size()));
+        check_run_memory(resolve_run(runs[i]), with_reference);
     }
     // Rank 0 decides whether the cached reference exists (it alone writes it).
     std::error_code exists_ec;
@@ -380,7 +385,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
                 std::fprintf(stderr, "[%zu/%zu] %s%s: %s, relMSE %.4g\n", rows.size() + 1, total,
                              bench_label(row, keys).c_str(),
                              world ? (", " + std::to_string(n) + " ranks").c_str() : "",
-                             seconds(row.total_s).c_str(), row.rel_mse);
+                             seconds(row.total_s).c_str(), row.error());
             rows.push_back(std::move(row));
         }
     if (!root) return 0;
@@ -393,7 +398,10 @@ int run_bench(const BenchArgs& args, Ranks* world) {
 
     std::cout << "fogmap bench: " << args.scene << ", " << base.camera.width << "x"
               << base.camera.height << ", " << rows.size() << " runs, median of " << args.repeat
-              << ", reference " << reference_file << "\n";
+              << ", reference "
+              << (reference_file.empty() ? "none (errors are the runs' own estimates)"
+                                         : reference_file)
+              << "\n";
     for (int n : rank_counts) {
         std::vector<BenchRow> at_n;
         for (const BenchRow& r : rows)
@@ -412,9 +420,13 @@ int run_bench(const BenchArgs& args, Ranks* world) {
 Subcommand add_bench_command(CLI::App& app) {
     auto args = std::make_shared<BenchArgs>();
     CLI::App* sub = app.add_subcommand(
-        "bench", "sweep settings; CSV and SVG plot of error against run time vs a reference");
+        "bench",
+        "sweep settings; CSV and SVG plot of error against run time (vs a reference, or each "
+        "run's own estimate)");
     sub->add_option("scene", args->scene, "scene JSON file")->required();
-    sub->add_option("--reference", args->reference, "reference .exr of the same scene and size");
+    sub->add_option("--reference", args->reference,
+                    "reference .exr of the same scene and size (without one and without "
+                    "--reference-spp: each run's own error estimate)");
     sub->add_option("--reference-spp", args->reference_spp,
                     "render a path-traced reference at N spp, cached beside the CSV as "
                     "<scene>_ref_path<N>spp_<FNV-1a of its scene JSON>.exr");

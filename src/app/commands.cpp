@@ -298,8 +298,9 @@ RenderJob prepare_render(const RenderArgs& args) {
         }
     if (args.progressive && !desc.progressive.enabled())
         throw InputError("", "--progressive",
-                         "needs --time-budget SECONDS or --iterations N (or progressive.iterations "
-                         "or progressive.time_budget in the scene)");
+                         "needs --time-budget SECONDS, --iterations N or --target-relmse X (or "
+                         "progressive.iterations, progressive.time_budget or "
+                         "progressive.target_relmse in the scene)");
     for (size_t i = 0; i < desc.media.size(); ++i)
         check_frame_pattern(desc.media[i].file, desc.path, "/media/" + std::to_string(i) + "/file");
     for (size_t i = 0; i < desc.media.size(); ++i)

@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
     RenderArgs render;
     int spp = 0, threads = 0, max_depth = 0, iterations = 0;
     long long seed = 0;
-    double time_budget = 0.0, alpha = 0.0;
+    double time_budget = 0.0, alpha = 0.0, target_relmse = 0.0;
     CLI::App* r = app.add_subcommand("render", "render a scene file to EXR + PNG");
     r->add_option("scene", render.scene, "scene JSON file")->required();
     r->add_option("-o,--output", render.output, "output .exr (default out/<scene>.exr)");
@@ -93,6 +93,9 @@ int main(int argc, char** argv) {
                   "progressive: seconds to run (= --set progressive.time_budget=S)");
     r->add_option("--iterations", iterations,
                   "progressive: iterations to run (= --set progressive.iterations=N)");
+    r->add_option("--target-relmse", target_relmse,
+                  "run iterations until the error estimate's 95% upper bound is at most this "
+                  "relMSE (= --set progressive.target_relmse=X)");
     r->add_option("--alpha", alpha,
                   "progressive: radius reduction in (0, 1) (= --set progressive.alpha=A)");
     r->add_flag("-q,--quiet", render.quiet, "no progress bar");
@@ -168,6 +171,9 @@ int main(int argc, char** argv) {
                                            r->get_option("--time-budget")->as<std::string>());
             if (r->count("--iterations"))
                 render.overrides.push_back("progressive.iterations=" + std::to_string(iterations));
+            if (r->count("--target-relmse"))
+                render.overrides.push_back("progressive.target_relmse=" +
+                                           r->get_option("--target-relmse")->as<std::string>());
             if (r->count("--alpha"))
                 render.overrides.push_back("progressive.alpha=" +
                                            r->get_option("--alpha")->as<std::string>());

@@ -50,17 +50,17 @@ double path_error_at(const std::vector<const BenchRow*>& path, double time_s, bo
     *extrapolated = false;
     std::vector<const BenchRow*> p;
     for (const BenchRow* r : path)
-        if (r->total_s > 0.0 && r->rel_mse > 0.0) p.push_back(r);
+        if (r->total_s > 0.0 && r->error() > 0.0) p.push_back(r);
     if (p.empty()) return std::nan("");
     if (p.size() == 1) {
         *extrapolated = time_s != p[0]->total_s;
-        return p[0]->rel_mse;
+        return p[0]->error();
     }
     size_t i = 0;  // segment [i, i+1]
     while (i + 2 < p.size() && time_s > p[i + 1]->total_s) ++i;
     *extrapolated = time_s < p.front()->total_s || time_s > p.back()->total_s;
     const double x0 = std::log(p[i]->total_s), x1 = std::log(p[i + 1]->total_s);
-    const double y0 = std::log(p[i]->rel_mse), y1 = std::log(p[i + 1]->rel_mse);
+    const double y0 = std::log(p[i]->error()), y1 = std::log(p[i + 1]->error());
     if (x1 == x0) return std::exp(0.5 * (y0 + y1));
     const double t = (std::log(time_s) - x0) / (x1 - x0);
     return std::exp(y0 + t * (y1 - y0));
@@ -99,7 +99,7 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
     row.spp = progressive ? setup.run.render.spp : desc.render.spp;  // as the run takes it
     row.repeats = std::max(repeats, 1);
     std::vector<std::vector<double>> phases(kBenchPhases.size());
-    std::vector<double> totals, rmse, rel_mse, bias;
+    std::vector<double> totals, rmse, rel_mse, bias, est, est_lo, est_hi;
     for (int rep = 0; rep < row.repeats; ++rep) {
         const Timer timer;
         const PipelineResult result = run_pipeline(desc, /*quiet=*/true, nullptr, ranks);
@@ -113,6 +113,13 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
             phases[p].push_back(s);
         }
         if (ranks && ranks->rank() != 0) continue;  // rank 0 alone holds the image
+        const ErrorReport& own = result.report.error;
+        row.est_valid = own.valid;
+        est.push_back(own.rel_mse);
+        est_lo.push_back(own.lo);
+        est_hi.push_back(own.hi);
+        row.measured = !reference.pixels.empty();
+        if (!row.measured) continue;
         const ImageError e = image_error(result.film.beauty, reference);
         rmse.push_back(e.rmse);
         rel_mse.push_back(e.rel_mse);
@@ -127,6 +134,9 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
     row.rmse = median(rmse);
     row.rel_mse = median(rel_mse);
     row.bias = median(bias);
+    row.est_rel_mse = median(est);
+    row.est_lo = median(est_lo);
+    row.est_hi = median(est_hi);
     for (size_t p = 0; p < kBenchPhases.size(); ++p) row.phase_s[p] = median(phases[p]);
     row.total_s = median(totals);
     return row;
@@ -143,7 +153,7 @@ std::string bench_csv_header(const std::vector<std::string>& swept_keys) {
     }
     h += ",total_s";
     for (const char* map : kBenchMaps) h += std::string(",stored_") + map;
-    return h + ",bytes,rmse,rel_mse,bias\n";
+    return h + ",bytes,rmse,rel_mse,bias,est_rel_mse,est_lo,est_hi\n";
 }
 
 std::string bench_csv_row(const BenchRow& row) {
@@ -154,8 +164,12 @@ std::string bench_csv_row(const BenchRow& row) {
     for (double t : row.phase_s) s += "," + number(t);
     s += "," + number(row.total_s);
     for (uint64_t n : row.stored) s += "," + std::to_string(n);
-    s += "," + std::to_string(row.bytes) + "," + number(row.rmse) + "," + number(row.rel_mse) +
-         "," + number(row.bias);
+    s += "," + std::to_string(row.bytes);
+    s += row.measured ? "," + number(row.rmse) + "," + number(row.rel_mse) + "," + number(row.bias)
+                      : ",,,";
+    s += row.est_valid
+             ? "," + number(row.est_rel_mse) + "," + number(row.est_lo) + "," + number(row.est_hi)
+             : ",,,";
     return s + "\n";
 }
 
@@ -201,10 +215,12 @@ std::string bench_summary(const std::vector<BenchRow>& rows,
     std::vector<double> t, e;
     for (const BenchRow* r : photon) {
         t.push_back(r->total_s);
-        e.push_back(r->rel_mse);
+        e.push_back(r->error());
     }
     const std::vector<size_t> frontier = pareto_frontier(t, e);
     out << "Pareto frontier of the photon runs (best setting at each time budget):\n";
+    if (!rows.empty() && !rows.front().measured)
+        out << "  (no reference: relMSE is each run's own estimate, render/error_estimate.h)\n";
     out << "  " << padded("total_s", 10) << padded("relMSE", 12) << padded("path relMSE", 14)
         << padded("path/photon", 13) << "setting\n";
     for (size_t i : frontier) {
@@ -214,8 +230,8 @@ std::string bench_summary(const std::vector<BenchRow>& rows,
         const std::string pe_text =
             std::isnan(pe) ? "-" : short_number(pe) + (extrapolated ? "*" : "");
         const std::string ratio =
-            std::isnan(pe) || r.rel_mse <= 0.0 ? "-" : short_number(pe / r.rel_mse) + "x";
-        out << "  " << padded(short_number(r.total_s), 10) << padded(short_number(r.rel_mse), 12)
+            std::isnan(pe) || r.error() <= 0.0 ? "-" : short_number(pe / r.error()) + "x";
+        out << "  " << padded(short_number(r.total_s), 10) << padded(short_number(r.error()), 12)
             << padded(pe_text, 14) << padded(ratio, 13) << bench_label(r, swept_keys) << "\n";
     }
     if (photon.empty()) out << "  (no photon runs)\n";
@@ -224,7 +240,7 @@ std::string bench_summary(const std::vector<BenchRow>& rows,
     out << "Path tracer:\n";
     out << "  " << padded("total_s", 10) << padded("relMSE", 12) << "spp\n";
     for (const BenchRow* r : path)
-        out << "  " << padded(short_number(r->total_s), 10) << padded(short_number(r->rel_mse), 12)
+        out << "  " << padded(short_number(r->total_s), 10) << padded(short_number(r->error()), 12)
             << r->spp << "\n";
     if (path.empty()) out << "  (no path runs)\n";
     return out.str();
@@ -270,7 +286,7 @@ std::string ranks_summary(const std::vector<BenchRow>& rows,
                               short_number(r->total_s > 0.0 ? 100.0 * comm / r->total_s : 0.0) +
                               "%",
                           24)
-                << "relMSE " << short_number(r->rel_mse) << "\n";
+                << "relMSE " << short_number(r->error()) << "\n";
         }
     }
     if (out.str().empty()) return "";

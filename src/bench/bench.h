@@ -46,14 +46,22 @@ struct BenchRow {
     double total_s = 0.0;  ///< median wall time of the whole run_pipeline
     std::array<uint64_t, kBenchMaps.size()> stored{};  ///< photons stored per map
     uint64_t bytes = 0;                                ///< all maps: records + trees
+    bool measured = true;  ///< a reference was given: rmse, rel_mse and bias hold
     double rmse = 0.0, rel_mse = 0.0, bias = 0.0;      ///< against the reference (medians)
+    /// The run's own estimate of its relMSE and its 95% interval (render/error_estimate.h);
+    /// est_valid false when the run could not estimate it (one sample a pixel).
+    bool est_valid = false;
+    double est_rel_mse = 0.0, est_lo = 0.0, est_hi = 0.0;
+    /// The error the summary and plot weigh: against the reference, else the estimate.
+    double error() const { return measured ? rel_mse : est_rel_mse; }
 };
 
 /// Runs `desc` `repeats` (>= 1) times through run_pipeline (quietly) and measures each image
-/// against `reference` (same size, checked by the caller); times and errors are medians over the
-/// repeats (images are deterministic per seed, so normally only the times vary). Throws what
-/// run_pipeline throws. With `ranks` (core/ranks.h) all of them run it and rank 0's row is the
-/// measurement (the others' rows hold no error).
+/// against `reference` (same size, checked by the caller; empty: none, row.measured false) and
+/// keeps its own error estimate; times and errors are medians over the repeats (images are
+/// deterministic per seed, so normally only the times vary). Throws what run_pipeline throws. With
+/// `ranks` (core/ranks.h) all of them run it and rank 0's row is the measurement (the others' rows
+/// hold no error).
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference,
                         Ranks* ranks = nullptr);
 
@@ -61,7 +69,8 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
 double median(std::vector<double> v);
 
 /// CSV header: method, the swept keys, spp, repeats, ranks, threads, <phase>_s..., total_s,
-/// stored_<map>..., bytes, rmse, rel_mse, bias.
+/// stored_<map>..., bytes, rmse, rel_mse, bias (empty without a reference), est_rel_mse,
+/// est_lo, est_hi (empty where the run could not estimate it).
 std::string bench_csv_header(const std::vector<std::string>& swept_keys);
 /// One CSV line (with '\n'); fields with ',' or '"' are quoted.
 std::string bench_csv_row(const BenchRow& row);

@@ -144,7 +144,8 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape
     if (fingerprint != shape.fingerprint)
         fail(path, "fingerprint",
              "written for another scene, other settings or other input files (only "
-             "progressive.iterations, progressive.time_budget and render.threads may change "
+             "progressive.iterations, progressive.time_budget, progressive.target_relmse and "
+             "render.threads may change "
              "between a run and its resumption, and the input files not at all)");
     // Read no more than this run's checkpoint takes: a file of another size is named, not loaded.
     const uint64_t want = expected_bytes(shape);

@@ -120,6 +120,11 @@ struct Counts {
 
 static_assert(sizeof(Counts) == kRunCounts * sizeof(int64_t), "a checkpoint stores every count");
 
+/// A target's first look, after as many iterations as batches (every batch then holds one);
+/// later looks at twice the count before, so that repeated looks do not inflate the chance of
+/// stopping early.
+constexpr int kFirstLook = kBatches;
+
 /// More lights than this make next-event estimation, not the samples, the bulk of the work.
 constexpr size_t kManyLights = 1000;
 
@@ -149,7 +154,9 @@ private:
     Film render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                         const RenderSettings& settings, RenderStats* stats, IterationReport* it);
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
-    bool last_round(int round, double loop_start_s);
+    bool last_round(int ran, int round, double loop_start_s);
+    bool target_reached();
+    int iteration_cap() const;
     void gather_to_root();
     bool reduce();
     void finish_report();
@@ -171,6 +178,7 @@ private:
     Counts counts_;
     FixedFilm sum_;  ///< progressive iterations, summed in fixed point (film.h)
     int own_ = 0;    ///< iterations this rank ran itself
+    int next_look_ = 0;  ///< the iteration count at which a target is looked at next (0: none)
     double checkpointed_s_ = 0.0;
     std::optional<GatherParams> first_gather_;
     std::optional<SigmaTable> sigma_table_;  ///< MapEnd: σ_s over boxes, for every iteration
@@ -219,6 +227,8 @@ void RunLoop::begin() {
     report_.plan_text = plan_text(plan);
     report_.plan = plan_json(plan);
     if (!quiet_) std::fprintf(stderr, "%s", report_.plan_text.c_str());
+    if (desc_.progressive.target_relmse > 0.0f)
+        for (next_look_ = kFirstLook; next_look_ <= base_;) next_look_ *= 2;
     if (base_ > 0 && root_) {
         sum_ = o_.checkpoints->resume->sum;
         counts_ = Counts::unpack(o_.checkpoints->resume->counts);
@@ -226,7 +236,7 @@ void RunLoop::begin() {
     }
     // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
     // does not run it traces its photons for that alone.
-    if (progressive_ && (my_rank_ != 0 || base_ > 0)) {
+    if (progressive_ && setup_.method != Method::Path && (my_rank_ != 0 || base_ > 0)) {
         PhotonPassResult pass = trace_photons(scene_, setup_.plan, setup_.photons, desc_.march,
                                               iteration_seed(desc_.render.seed, 1, true), true);
         first_gather_ = gather_params(desc_, scene_, build_trees(std::move(pass)), true);
@@ -392,19 +402,26 @@ void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it
     if (running_error && progressive_)
         it.rel_mse = image_error(sum_.mean(int(counts_.iterations)).beauty, *o_.reference).rel_mse;
     report_.iterations.push_back(it);
-    if (progressive_ && !quiet_)
-        std::fprintf(stderr, "progressive: iteration %d, %.1f s, radii %.4g %.4g %.4g%s\n",
-                     it.index, it.elapsed_s, it.radii.global, it.radii.caustic, it.radii.volume,
-                     running_error ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
+    if (!progressive_ || quiet_) return;
+    char radii[100] = "";
+    if (setup_.photon())
+        std::snprintf(radii, sizeof radii, ", radii %.4g %.4g %.4g", it.radii.global,
+                      it.radii.caustic, it.radii.volume);
+    std::fprintf(stderr, "progressive: iteration %d, %.1f s%s%s\n", it.index, it.elapsed_s, radii,
+                 running_error ? (", relMSE " + std::to_string(it.rel_mse)).c_str() : "");
 }
 
-/// After round `round`: whether the run stops, the same answer on every rank (the count is known
-/// to all, the time budget agreed on); writes a checkpoint when one is due.
-bool RunLoop::last_round(int round, double loop_start_s) {
+/// After round `round`, with iterations 1 .. `ran` run: whether the run stops, the same answer on
+/// every rank (the count is known to all, the time budget agreed on); writes a checkpoint when
+/// one is due.
+bool RunLoop::last_round(int ran, int round, double loop_start_s) {
     if (!progressive_) return true;
     const ProgressiveDesc& p = desc_.progressive;
-    const int ran = base_ + (round + 1) * n_ranks_;
     if (p.iterations > 0 && ran >= p.iterations) return true;
+    if (next_look_ > 0 && ran >= next_look_) {
+        if (target_reached()) return true;
+        next_look_ *= 2;
+    }
     // Out of time when another round would end further past the budget than this one ends
     // before it (a round taking the mean time so far): the run ends within half a round of it.
     const double now_s = timer_.seconds(), round_s = (now_s - loop_start_s) / (round + 1);
@@ -421,6 +438,31 @@ bool RunLoop::last_round(int round, double loop_start_s) {
         }
     }
     return false;
+}
+
+/// At a look: whether the error estimate of iterations 1 .. next_look_ (all of them in rank 0's
+/// sum, no later one anywhere: iteration_cap) has its upper bound at the target; the same
+/// answer on every rank, and for any rank count.
+bool RunLoop::target_reached() {
+    gather_to_root();
+    bool reached = false;
+    if (root_) {
+        const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)));
+        reached = e.valid && e.rel_mse.hi <= desc_.progressive.target_relmse;
+        if (!quiet_)
+            std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n",
+                         int(counts_.iterations), e.rel_mse.value, e.rel_mse.lo, e.rel_mse.hi,
+                         reached ? ", reached" : "");
+    }
+    return ranks_ ? ranks_->any(reached) : reached;
+}
+
+/// The last iteration the next round may run: progressive.iterations, and with a target the
+/// next look's count (no iteration past it may enter the sum it looks at); 0 = none.
+int RunLoop::iteration_cap() const {
+    const int cap = desc_.progressive.iterations;
+    if (next_look_ == 0) return cap;
+    return cap > 0 ? std::min(cap, next_look_) : next_look_;
 }
 
 /// Every rank's progressive sum and counts into rank 0's; the other ranks start again from zero.
@@ -531,6 +573,9 @@ void RunLoop::estimate() {
     r.batched_by = progressive_ ? "iterations" : "samples";
     r.tail_share = e.tail_share;
     r.tail = e.tail;
+    r.target = desc_.progressive.target_relmse;
+    r.reached = r.target > 0.0 && e.valid && e.rel_mse.hi <= r.target;
+    r.iterations = int(counts_.iterations);
     if (setup_.photon())
         r.excludes = progressive_ ? "the photon maps' bias (their gather radii blur the light)"
                                   : "the photon map's own noise and its bias (one map serves "
@@ -546,10 +591,11 @@ PipelineResult RunLoop::run() {
     const ThreadLimit threads(desc_.render.threads);
     begin();
     const double loop_start_s = timer_.seconds();
+    int ran = base_;  // iterations 1 .. ran are in some rank's sum
     for (int round = 0;; ++round) {
-        // Rank r runs iterations i ≡ r + 1 (mod ranks), one per round, after the checkpoint's.
-        const int i = progressive_ ? base_ + round * n_ranks_ + my_rank_ + 1 : 1;
-        const int cap = desc_.progressive.iterations;
+        // Rank r runs iteration ran + r + 1 of each round, after the checkpoint's, up to the cap.
+        const int i = progressive_ ? ran + my_rank_ + 1 : 1;
+        const int cap = iteration_cap();
         if (!progressive_ || !(cap > 0 && i > cap)) {
             ++counts_.iterations;
             ++own_;
@@ -559,7 +605,8 @@ PipelineResult RunLoop::run() {
             Film film = run_iteration(i, &it, &stats);
             accumulate(std::move(film), stats, it);
         }
-        if (last_round(round, loop_start_s)) break;
+        ran = cap > 0 ? std::min(ran + n_ranks_, cap) : ran + n_ranks_;
+        if (last_round(ran, round, loop_start_s)) break;
     }
     if (reduce()) finish_report();
     return std::move(out_);

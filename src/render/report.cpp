@@ -32,6 +32,12 @@ std::string error_text(const ErrorReport& e) {
                        ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
                        " batches of " + e.batched_by + "\n";
     if (!e.excludes.empty()) text += "error estimate: not in it: " + e.excludes + "\n";
+    if (e.target > 0.0)
+        text += "error estimate: target relMSE " + general(e.target) +
+                (e.reached ? " reached after " + std::to_string(e.iterations) + " iterations\n"
+                           : " not reached in " + std::to_string(e.iterations) +
+                                 " iterations: the time budget or the iteration cap ended the "
+                                 "run\n");
     if (e.tail)
         text += "error estimate: the brightest 0.1% of pixels carry " +
                 fixed(100.0 * e.tail_share, 0) +
@@ -50,7 +56,10 @@ nlohmann::json error_json(const ErrorReport& e) {
             {"batched_by", e.batched_by},
             {"tail_share", e.tail_share},
             {"tail", e.tail},
-            {"excludes", e.excludes}};
+            {"excludes", e.excludes},
+            {"target", e.target > 0.0 ? nlohmann::json(e.target) : nlohmann::json()},
+            {"reached", e.reached},
+            {"iterations", e.iterations}};
 }
 
 }  // namespace

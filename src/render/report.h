@@ -46,6 +46,9 @@ struct ErrorReport {
     double tail_share = 0.0;                   ///< share of it the top 0.1% of pixels carry
     bool tail = false;                         ///< tail_share above one half: fireflies
     std::string excludes;                      ///< the errors it cannot see ("": none known)
+    double target = 0.0;                       ///< progressive.target_relmse (0: none)
+    bool reached = false;                      ///< hi at most target
+    int iterations = 0;                        ///< of the run (progressive)
 };
 
 struct Report {

@@ -415,7 +415,7 @@ namespace {
 bool reads(Method method, const std::string& section, const std::string& key) {
     const bool gather = method == Method::Gather, photon = gather || method == Method::MapEnd;
     if (section == "global" || section == "caustic") return gather;
-    if (section == "progressive") return photon;
+    if (section == "progressive") return photon || key != "alpha";  // the others: iterations
     if (section == "march") return method != Method::Path;
     if (section == "photons")
         return (key == "global" || key == "caustic") ? gather : method != Method::Path;
@@ -460,6 +460,17 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
             s.schedule = size.reason;
         }
         s.progressive = d.progressive.enabled();
+    } else if (d.progressive.enabled()) {
+        s.progressive = true;
+        s.schedule =
+            "iterations of render.spp = " + std::to_string(d.render.spp) + " fresh samples a pixel";
+    }
+    // A target alone stops by its rule or at kTargetIterations: never a run without an end.
+    ProgressiveDesc& p = d.progressive;
+    if (p.target_relmse > 0.0f && p.iterations == 0 && p.time_budget == 0.0f) {
+        p.iterations = kTargetIterations;
+        s.schedule += std::string(s.schedule.empty() ? "" : "; ") + "at most " +
+                      std::to_string(kTargetIterations) + " iterations to reach the target";
     }
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
@@ -499,6 +510,7 @@ uint64_t resumable_fingerprint(const RunSetup& setup) {
     nlohmann::json j = to_json(setup.run);
     j["progressive"].erase("iterations");
     j["progressive"].erase("time_budget");
+    j["progressive"].erase("target_relmse");
     j["render"].erase("threads");
     return fnv1a(j.dump());
 }

@@ -42,7 +42,8 @@ struct RunSetup {
     /// auto left the pick between the photon methods, path and guided to a pilot once the media
     /// are loaded (render/pilot.h, settle_pilot).
     bool pilot = false;
-    /// Iterations of shrinking radii summed into one film (photon methods only).
+    /// Iterations summed into one film: of shrinking radii (photon methods), of fresh samples
+    /// (path, guided).
     bool progressive = false;
     std::string schedule;  ///< why the iterations are as they are; "" for one plain iteration
     /// Settings keys the scene sets (away from their defaults) that this method does not read.
@@ -109,6 +110,9 @@ struct IterationSize {
     std::string reason;  ///< for the Plan; "" for a plain render of one iteration
 };
 
+/// The most iterations a run with progressive.target_relmse and no other budget takes.
+inline constexpr int kTargetIterations = 4096;
+
 /// Camera samples an iteration takes at least where the volume map's photons follow the samples
 /// (the attempts rule's budget): smaller iterations repeat the per-iteration work too often,
 /// larger maps cost more than their photons (docs/measurements.md, Progressive photon mapping).
@@ -135,7 +139,8 @@ Plan make_plan(const SceneDesc& desc);
 nlohmann::json settings_json(const RunSetup& setup);
 
 /// FNV-1a of what a resumed progressive run must share with its checkpoint: the resolved run
-/// without progressive.iterations, progressive.time_budget and render.threads.
+/// without progressive.iterations, progressive.time_budget, progressive.target_relmse and
+/// render.threads.
 uint64_t resumable_fingerprint(const RunSetup& setup);
 
 }  // namespace fogmap

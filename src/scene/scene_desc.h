@@ -210,16 +210,21 @@ struct VolumeGatherSettings {
 /// The most iterations a progressive run (or a plain render split into iterations) takes.
 inline constexpr int kMaxProgressiveIterations = 1000000;
 
-/// Progressive photon mapping (Knaus & Zwicker 2011), on when iterations or time_budget > 0
-/// (photon integrator only): iterations of photon pass + render with shrinking fixed radii.
+/// Iterations summed into one film, on when iterations, time_budget or target_relmse > 0:
+/// progressive photon mapping (Knaus & Zwicker 2011) for the photon methods, each iteration a
+/// photon pass and a render with shrinking fixed radii; render.spp fresh samples an iteration for
+/// the path and guided tracers.
 struct ProgressiveDesc {
     int iterations = 0;         ///< stop after this many iterations (0 = no limit)
     float time_budget = 0.0f;   ///< stop once this many seconds have passed (0 = no limit)
+    /// Stop once the error estimate's 95% upper bound is at most this relMSE (0 = no target),
+    /// looked at after kFirstLook, then twice as many, ... iterations (render/pipeline.cpp).
+    float target_relmse = 0.0f;
     float alpha = 2.0f / 3.0f;  ///< radius reduction, in (0, 1)
     /// Camera samples per pixel in each iteration; 0 = by rule (render/run_setup.h,
     /// iteration_size).
     int spp = 0;
-    bool enabled() const { return iterations > 0 || time_budget > 0.0f; }
+    bool enabled() const { return iterations > 0 || time_budget > 0.0f || target_relmse > 0.0f; }
 };
 
 struct SceneDesc {

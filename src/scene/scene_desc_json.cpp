@@ -234,6 +234,7 @@ template <class P, class V>
 void progressive_fields(P& p, V& v) {
     v.value("iterations", p.iterations);
     v.value("time_budget", p.time_budget);
+    v.value("target_relmse", p.target_relmse);
     v.value("alpha", p.alpha);
 }
 

@@ -564,11 +564,8 @@ void check_progressive(const SceneDesc& desc) {
     const Checker k(desc, "/progressive");
     k.int_range("iterations", p.iterations, 0, kMaxProgressiveIterations);
     k.non_negative("time_budget", p.time_budget);
+    k.non_negative("target_relmse", p.target_relmse);
     k.range("alpha", p.alpha, 0.0f, 1.0f, true);
-    if (p.enabled() && desc.render.integrator != Integrator::Photon &&
-        desc.render.integrator != Integrator::Auto)
-        k.fail("", "progressive photon mapping needs render.integrator \"photon\"; found \"" +
-                       std::string(to_string(desc.render.integrator)) + "\"");
 }
 
 }  // namespace

@@ -94,6 +94,28 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
     }
 }
 
+TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
+    // The looks at 8, 16, 32 iterations decide from the sums of exactly those iterations: the
+    // stop, the image and its variance layer are those of one process at 1, 2 and 3 ranks.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
+    const std::string args = "render -q " + scene +
+                             " --set camera.width=32 --set camera.height=18 --set render.spp=2 "
+                             "--set render.integrator=path --target-relmse 0.004 -o ";
+    const test::RunResult plain = run(args + at("plain.exr"), 0);
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    const std::string reached = report_line(plain.out, "error estimate: target");
+    ASSERT_NE(reached.find("reached after 16 iterations"), std::string::npos) << plain.out;
+    const std::string expected = test::slurp(at("plain.exr"));
+    for (int ranks : {1, 2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks");
+        const std::string exr = at("t" + std::to_string(ranks) + ".exr");
+        const test::RunResult r = run(args + exr, ranks);
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
+        EXPECT_EQ(report_line(r.out, "error estimate: target"), reached);
+    }
+}
+
 TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
     // Every rank traces every n-th chunk of each photon round and renders every n-th tile; the
     // EXR is that of one process, for the photon maps (with points and with photon beams, which

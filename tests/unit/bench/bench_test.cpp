@@ -99,7 +99,7 @@ TEST(ParetoFrontier, MonotoneTradeOffKeepsEveryPoint) {
 TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     const std::vector<std::string> keys = {"photons.volume", "volume.k"};
     const std::string header = bench_csv_header(keys);
-    // In rows (clang-format would put the 25 names one to a line).
+    // In rows (clang-format would put the 28 names one to a line).
     // clang-format off
     const std::vector<std::string> expected = {
         "method",         "photons.volume", "volume.k",        "spp",
@@ -108,7 +108,7 @@ TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
         "build_volume_s", "precompute_s",   "render_s",        "photon_exchange_s",
         "reduce_s",       "total_s",        "stored_global",   "stored_caustic",
         "stored_volume",  "bytes",          "rmse",            "rel_mse",
-        "bias"};
+        "bias",           "est_rel_mse",    "est_lo",          "est_hi"};
     // clang-format on
     ASSERT_EQ(header.back(), '\n');
     EXPECT_EQ(split(header.substr(0, header.size() - 1), ','), expected);
@@ -123,7 +123,16 @@ TEST(BenchCsv, HeaderAndRowsHaveTheSameColumns) {
     row.rel_mse = 0.25;
     const std::string line = bench_csv_row(row);
     EXPECT_EQ(line.substr(0, 31), "photon,1000,\"[1,2]\",4,3,1,0,0,0");
-    EXPECT_NE(line.find(",10,0,1000,20000,0,0.25,0\n"), std::string::npos) << line;
+    EXPECT_NE(line.find(",10,0,1000,20000,0,0.25,0,,,\n"), std::string::npos) << line;
+    // Without a reference the measured columns are empty, the estimate's filled.
+    row.measured = false;
+    row.est_valid = true;
+    row.est_rel_mse = 0.5;
+    row.est_lo = 0.25;
+    row.est_hi = 0.75;
+    EXPECT_NE(bench_csv_row(row).find(",20000,,,,0.5,0.25,0.75\n"), std::string::npos)
+        << bench_csv_row(row);
+    EXPECT_EQ(row.error(), 0.5);
 }
 
 TEST(SvgPlot, FrontierIsAPolylineAndTheDocumentIsClosed) {
@@ -201,7 +210,7 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     ASSERT_EQ(lines.size(), 8u);
     EXPECT_EQ(lines.back(), "");
     const std::vector<std::string> header = split(lines[0], ',');
-    ASSERT_EQ(header.size(), 25u);
+    ASSERT_EQ(header.size(), 28u);
     EXPECT_EQ(header[1], "photons.volume");
     EXPECT_EQ(header[2], "volume.k");
     const std::vector<std::vector<std::string>> expected = {
@@ -213,7 +222,9 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
         ASSERT_EQ(f.size(), header.size()) << lines[i + 1];
         EXPECT_EQ(std::vector<std::string>(f.begin(), f.begin() + 3), expected[i]);
         EXPECT_EQ(f[4], "2");  // repeats
-        for (size_t c = 5; c < f.size(); ++c) EXPECT_FALSE(f[c].empty()) << header[c];
+        // Every column holds a value; the estimate's not at 1 sample a pixel (path spp 1).
+        for (size_t c = 5; c < f.size(); ++c)
+            EXPECT_EQ(f[c].empty(), f[3] == "1" && header[c].rfind("est_", 0) == 0) << header[c];
         EXPECT_EQ(f[col("ranks")], "1");
         const double rel_mse = std::stod(f[col("rel_mse")]);
         EXPECT_TRUE(rel_mse > 0.0 && std::isfinite(rel_mse)) << lines[i + 1];
@@ -242,6 +253,27 @@ TEST_F(BenchCommand, TinyRunWritesOneCsvRowPerRunAndAPlot) {
     ASSERT_EQ(again.code, 0) << again.err;
     EXPECT_NE(again.err.find("reusing"), std::string::npos) << again.err;
     EXPECT_EQ(split(slurp(dir_ / "out" / "b.csv"), '\n').size(), 6u);
+}
+
+TEST_F(BenchCommand, WithoutAReferenceTheRunsOwnEstimatesArePlotted) {
+    const RunResult r = run("--sweep photons.volume=100,300 --path-spp 2" + outputs());
+    ASSERT_EQ(r.code, 0) << r.err;
+    const std::vector<std::string> lines = split(slurp(dir_ / "out" / "b.csv"), '\n');
+    ASSERT_EQ(lines.size(), 5u);  // header, 2 photon runs, 1 path run, ""
+    const std::vector<std::string> header = split(lines[0], ',');
+    for (int i = 1; i <= 3; ++i) {
+        const std::vector<std::string> f = split(lines[i], ',');
+        ASSERT_EQ(f.size(), header.size()) << lines[i];
+        EXPECT_TRUE(f[column(header, "rel_mse")].empty()) << lines[i];
+        const double est = std::stod(f[column(header, "est_rel_mse")]);
+        EXPECT_GT(est, 0.0) << lines[i];
+        EXPECT_LE(std::stod(f[column(header, "est_lo")]), est);
+        EXPECT_GE(std::stod(f[column(header, "est_hi")]), est);
+    }
+    EXPECT_NE(slurp(dir_ / "out" / "b.svg").find("estimated relMSE, no reference"),
+              std::string::npos);
+    EXPECT_NE(r.out.find("no reference: relMSE is each run's own estimate"), std::string::npos)
+        << r.out;
 }
 
 TEST_F(BenchCommand, ProgressiveIterationsAreASweepSetting) {

@@ -88,6 +88,15 @@ Report hand_built() {
     r.rmse = 0.1;
     r.rel_mse = 0.2;
     r.bias = -0.05;
+    r.error.valid = true;
+    r.error.rel_mse = 0.0125;
+    r.error.lo = 0.01;
+    r.error.hi = 0.015;
+    r.error.batches = 8;
+    r.error.batched_by = "samples";
+    r.error.tail_share = 0.625;
+    r.error.tail = true;
+    r.error.excludes = "the bias";
     return r;
 }
 
@@ -150,6 +159,17 @@ TEST(Report, JsonCarriesEveryField) {
     EXPECT_EQ(j["reference"]["rmse"], 0.1);
     EXPECT_EQ(j["reference"]["rel_mse"], 0.2);
     EXPECT_EQ(j["reference"]["bias"], -0.05);
+    const nlohmann::json& e = j["error_estimate"];
+    EXPECT_EQ(e["valid"], true);
+    EXPECT_EQ(e["rel_mse"], 0.0125);
+    EXPECT_EQ(e["lo"], 0.01);
+    EXPECT_EQ(e["hi"], 0.015);
+    EXPECT_EQ(e["confidence"], 0.95);
+    EXPECT_EQ(e["batches"], 8);
+    EXPECT_EQ(e["batched_by"], "samples");
+    EXPECT_EQ(e["tail_share"], 0.625);
+    EXPECT_EQ(e["tail"], true);
+    EXPECT_EQ(e["excludes"], "the bias");
 }
 
 TEST(Report, JsonOfAnEmptyReportHasNoReferenceAndZeroRates) {
@@ -162,6 +182,7 @@ TEST(Report, JsonOfAnEmptyReportHasNoReferenceAndZeroRates) {
     EXPECT_EQ(j["ranks"], 1);
     EXPECT_TRUE(j["maps"].empty());
     EXPECT_TRUE(j["iterations"].empty());
+    EXPECT_EQ(j["error_estimate"]["valid"], false);
 }
 
 bool has_line(const std::string& text, const std::string& line) {
@@ -203,6 +224,21 @@ TEST(Report, TextNamesThePhasesAndEverythingElse) {
     EXPECT_NE(t.find("error vs ref.exr: rmse 0.1, relmse 0.2, bias -0.05"), std::string::npos) << t;
     EXPECT_TRUE(has_line(t, "wrote: out.exr")) << t;
     EXPECT_TRUE(has_line(t, "wrote: out.png")) << t;
+    EXPECT_TRUE(has_line(t,
+                         "error estimate: relMSE 0.0125 [0.01, 0.015] (95%), from 8 batches of "
+                         "samples"))
+        << t;
+    EXPECT_TRUE(has_line(t, "error estimate: not in it: the bias")) << t;
+    EXPECT_NE(t.find("error estimate: the brightest 0.1% of pixels carry 62% of it"),
+              std::string::npos)
+        << t;
+}
+
+TEST(Report, TextSaysWhyThereIsNoEstimate) {
+    Report r;
+    r.error.why = "needs at least 2 samples per pixel";
+    EXPECT_TRUE(
+        has_line(report_text(r), "error estimate: none (needs at least 2 samples per pixel)"));
 }
 
 TEST(Report, TextOfOneRankSaysNothingOfRanks) {

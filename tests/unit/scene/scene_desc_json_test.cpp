@@ -77,7 +77,7 @@ json full_scene() {
       "caustic": {"k": 40, "radius": 0.0625, "cone_filter": 1.5},
       "volume": {"k": 30, "radius": 0.25, "estimator": "sphere", "gather_depth": 2},
       "march": {"method": "delta", "step_voxels": 0.5, "step_world": 0.01},
-      "progressive": {"iterations": 0, "time_budget": 0, "alpha": 0.5},
+      "progressive": {"iterations": 0, "time_budget": 0, "target_relmse": 0, "alpha": 0.5},
       "advanced": {"map_spp": 2, "guide_vertices": 2, "lookups_per_ray": 5, "light_samples": 3,
                    "gather_tau": 0.75, "sun_grid": 2.5, "iteration_spp": 24}
     })");
@@ -647,8 +647,8 @@ TEST(SceneValidate, ReportsPointerFoundAndExpected) {
          "iteration_spp must be >= 0 (0 = by rule); found -1"},
         {R"({"progressive": {"time_budget": -1}})", "/progressive/time_budget",
          "time_budget must be finite and >= 0; found -1"},
-        {R"({"progressive": {"iterations": 4}})", "/progressive",
-         "progressive photon mapping needs render.integrator \"photon\"; found \"path\""},
+        {R"({"progressive": {"target_relmse": -0.5}})", "/progressive/target_relmse",
+         "target_relmse must be finite and >= 0; found -0.5"},
     };
     for (const Case& c : cases) {
         json doc = full_scene();

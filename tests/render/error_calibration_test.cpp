@@ -1,0 +1,190 @@
+// Calibration of the error estimate (render/error_estimate.h) against references: each run's
+// true relMSE against a high-sample path-traced reference of the same scene, beside its estimate
+// and 95% interval; over seeds, how often the interval's upper bound holds the truth and the
+// median ratio estimate / truth. The default tests take one small case; the study
+// (ErrorCalibrationHeavy, label heavy) takes four scenes x two integrators x three sample counts
+// x 20 seeds and writes its table (CSV) and plot (SVG) to the working folder
+// (docs/error-estimate.md shows them).
+
+#include "bench/svg_plot.h"
+#include "render/metrics.h"
+#include "render/pipeline.h"
+#include "scene/scene_desc_json.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace fogmap {
+namespace {
+
+struct Case {
+    std::string scene;          ///< under the source folder
+    int width = 0, height = 0;  ///< 0: the scene's
+    int reference_spp = 0;
+};
+
+struct Run {
+    double truth = 0.0, estimate = 0.0, hi = 0.0;
+    bool tail = false;
+};
+
+struct Row {
+    std::string scene, integrator;
+    int spp = 0, runs = 0, covered = 0, tails = 0;
+    double median_ratio = 0.0;
+    std::vector<Run> points;
+};
+
+std::vector<std::string> size_overrides(const Case& c) {
+    if (c.width == 0) return {};
+    return {"camera.width=" + std::to_string(c.width), "camera.height=" + std::to_string(c.height)};
+}
+
+/// The path-traced reference of `c`, rendered once per test program.
+const Image& reference(const Case& c) {
+    static std::map<std::string, Image> made;
+    const std::string key =
+        c.scene + " " + std::to_string(c.width) + " " + std::to_string(c.reference_spp);
+    if (made.count(key)) return made[key];
+    std::vector<std::string> o = size_overrides(c);
+    o.push_back("render.integrator=\"path\"");
+    o.push_back("render.spp=" + std::to_string(c.reference_spp));
+    o.push_back("render.seed=987654321");
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + c.scene;
+    return made[key] = run_pipeline(load_scene_desc(path, o), true).film.beauty;
+}
+
+/// `seeds` runs of `integrator` ("" = the scene's) at `spp` against `ref`.
+Row calibrate(const Case& c, const Image& ref, const std::string& integrator, int spp, int seeds) {
+    Row row{c.scene, integrator.empty() ? "default" : integrator, spp};
+    std::vector<double> ratios;
+    for (int seed = 1; seed <= seeds; ++seed) {
+        std::vector<std::string> o = size_overrides(c);
+        if (!integrator.empty()) o.push_back("render.integrator=\"" + integrator + "\"");
+        o.push_back("render.spp=" + std::to_string(spp));
+        o.push_back("render.seed=" + std::to_string(seed));
+        const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + c.scene;
+        const PipelineResult r = run_pipeline(load_scene_desc(path, o), true);
+        const ErrorReport& e = r.report.error;
+        EXPECT_TRUE(e.valid) << c.scene << " " << spp << " spp";
+        const Run run{image_error(r.film.beauty, ref).rel_mse, e.rel_mse, e.hi, e.tail};
+        row.covered += run.truth <= run.hi;
+        row.tails += run.tail;
+        ratios.push_back(run.estimate / run.truth);
+        row.points.push_back(run);
+        ++row.runs;
+    }
+    std::sort(ratios.begin(), ratios.end());
+    row.median_ratio = 0.5 * (ratios[(ratios.size() - 1) / 2] + ratios[ratios.size() / 2]);
+    std::printf(
+        "%s %s %d spp: truth below the upper bound in %d / %d, median estimate / truth "
+        "%.3f, tail flag in %d\n",
+        row.scene.c_str(), row.integrator.c_str(), spp, row.covered, row.runs, row.median_ratio,
+        row.tails);
+    return row;
+}
+
+const Case kSmoke{"scenes/smoke.json", 160, 90, 1024};
+
+TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
+    const Case& smoke = kSmoke;
+    const Image ref = reference(smoke);
+    for (const std::string integrator : {"path", ""}) {
+        const Row row = calibrate(smoke, ref, integrator, 8, 20);
+        EXPECT_GE(row.covered, 18) << row.integrator;
+        EXPECT_GE(row.median_ratio, 0.8) << row.integrator;
+        EXPECT_LE(row.median_ratio, 1.25) << row.integrator;
+    }
+}
+
+/// The path tracer on smoke.json at 2 spp an iteration, with `extra` overrides.
+PipelineResult path_run(const std::vector<std::string>& extra) {
+    std::vector<std::string> o = size_overrides(kSmoke);
+    o.push_back("render.integrator=\"path\"");
+    o.push_back("render.spp=2");
+    o.insert(o.end(), extra.begin(), extra.end());
+    return run_pipeline(load_scene_desc(std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene, o),
+                        true);
+}
+
+TEST(ErrorCalibration, ATargetStopsAtTheFirstLookBelowItAndTheTruthIsBelowToo) {
+    const Image& ref = reference(kSmoke);
+    const double target = 0.002;
+    const PipelineResult run = path_run({"progressive.target_relmse=0.002"});
+    const ErrorReport& e = run.report.error;
+    ASSERT_TRUE(e.reached);
+    EXPECT_LE(e.hi, target);
+    EXPECT_LE(image_error(run.film.beauty, ref).rel_mse, target);
+    // Looks at 8, 16, 32, ... iterations: it stopped at one, the look before it had not reached.
+    const int n = e.iterations;
+    ASSERT_GE(n, 16);
+    EXPECT_EQ(n & (n - 1), 0) << n;
+    const PipelineResult before = path_run({"progressive.iterations=" + std::to_string(n / 2)});
+    EXPECT_GT(before.report.error.hi, target);
+    // The target's image is that of the same iterations run by count.
+    const PipelineResult same = path_run({"progressive.iterations=" + std::to_string(n)});
+    EXPECT_EQ(same.film.beauty.pixels, run.film.beauty.pixels);
+}
+
+void write_study(const std::vector<Row>& rows) {
+    std::ofstream csv("error_calibration.csv");
+    csv << "scene,integrator,spp,runs,covered,median_ratio,tail_flags\n";
+    LogLogPlot plot;
+    plot.title = "Estimated against true relMSE, 20 seeds each";
+    plot.x_label = "true relMSE (against a path-traced reference)";
+    plot.y_label = "estimated relMSE";
+    const char* colors[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728",
+                            "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
+    double lo = 1e30, hi = 0.0;
+    size_t series = 0;
+    for (const Row& r : rows) {
+        csv << r.scene << "," << r.integrator << "," << r.spp << "," << r.runs << "," << r.covered
+            << "," << r.median_ratio << "," << r.tails << "\n";
+        if (plot.series.empty() || plot.series.back().label != r.scene + " " + r.integrator)
+            plot.series.push_back({r.scene + " " + r.integrator,
+                                   colors[series++ % 8],
+                                   r.integrator == "path" ? PlotMarker::Square : PlotMarker::Circle,
+                                   PlotLine::None,
+                                   {}});
+        for (const Run& p : r.points) {
+            plot.series.back().points.push_back({p.truth, p.estimate});
+            lo = std::min(lo, p.truth);
+            hi = std::max(hi, p.truth);
+        }
+    }
+    plot.series.push_back({"estimate = truth",
+                           "#000000",
+                           PlotMarker::None,
+                           PlotLine::Straight,
+                           {{lo, lo}, {hi, hi}}});
+    std::ofstream("error_calibration.svg") << svg_log_log(plot);
+}
+
+TEST(ErrorCalibrationHeavy, FourScenesTwoIntegratorsThreeSampleCounts) {
+    const Case cases[] = {{"scenes/smoke.json", 160, 90, 4096},
+                          {"scenes/fog.json", 160, 90, 4096},
+                          {"bench/scenes/smoke1_ground.json", 0, 0, 8192},
+                          {"bench/scenes/cloud_ground.json", 0, 0, 8192}};
+    std::vector<Row> rows;
+    for (const Case& c : cases) {
+        const Image ref = reference(c);
+        for (const std::string integrator : {"", "path"})
+            for (int spp : {4, 16, 64}) rows.push_back(calibrate(c, ref, integrator, spp, 20));
+    }
+    write_study(rows);
+    for (const Row& r : rows) {
+        if (r.integrator != "path") continue;  // the default's bias is not in its estimate yet
+        EXPECT_GE(r.covered, 18) << r.scene << " " << r.spp;
+        EXPECT_GE(r.median_ratio, 0.8) << r.scene << " " << r.spp;
+        EXPECT_LE(r.median_ratio, 1.25) << r.scene << " " << r.spp;
+    }
+}
+
+}  // namespace
+}  // namespace fogmap
