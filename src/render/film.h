@@ -183,6 +183,19 @@ private:
     }
 };
 
+/// For a pixel's `spp` samples in batches of whole `unit`s (render_film): sets film->batch_share
+/// and returns 1 / (samples in the batch) per batch (0 for an empty one).
+inline std::array<float, kBatches> batch_weights(int spp, int unit, Film* film) {
+    std::array<int, kBatches> in_batch{};
+    for (int s = 0; s < spp; ++s) ++in_batch[size_t((s / unit) % kBatches)];
+    std::array<float, kBatches> inv{};
+    for (size_t b = 0; b < size_t(kBatches); ++b) {
+        inv[b] = in_batch[b] > 0 ? 1.0f / float(in_batch[b]) : 0.0f;
+        film->batch_share[b] = double(in_batch[b]) / spp;
+    }
+    return inv;
+}
+
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
@@ -201,13 +214,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     Film film(w, h, layered);
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
-    std::array<int, kBatches> in_batch{};
-    for (int s = 0; s < spp; ++s) ++in_batch[size_t((s / unit) % kBatches)];
-    std::array<float, kBatches> batch_inv{};
-    for (int b = 0; b < kBatches; ++b) {
-        batch_inv[size_t(b)] = in_batch[size_t(b)] > 0 ? 1.0f / float(in_batch[size_t(b)]) : 0.0f;
-        film.batch_share[size_t(b)] = double(in_batch[size_t(b)]) / spp;
-    }
+    const std::array<float, kBatches> batch_inv = batch_weights(spp, unit, &film);
     const Timer timer;
     auto shade = [&](int x, int y, auto& state) {
         FilmSample sum;
