@@ -39,8 +39,8 @@ KernelDensity::KernelDensity(const std::vector<Medium>& media, float radius, Buf
     Box3 bounds;
     for (const Medium& m : media) bounds.extend(m.world_bounds());
     if (bounds.empty() || !(radius > 0.0f)) return;
-    // The cube of the ball's volume, (4π/3)^⅓ r on a side, averaged over 3 points per axis.
-    const float edge = std::cbrt(4.0f * kPi / 3.0f) * radius;
+    // The cube of the ball's volume, averaged over 3 points per axis.
+    const float edge = equal_volume_edge(radius);
     const Vec3 extent = bounds.extent() + Vec3(4.0f * edge);
     cell_ = capped_cell(extent, edge / 3.0f, kMaxCells);
     origin_ = bounds.lo - Vec3(2.0f * edge);
@@ -429,7 +429,7 @@ Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix&
                                  NeighborList& scratch) const {
     const float r = radius_ * std::cbrt(k_ / n);
     return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch),
-                  table_->cube_average(x, std::cbrt(4.0f * kPi / 3.0f) * r));
+                  table_->cube_average(x, equal_volume_edge(r)));
 }
 
 }  // namespace fogmap

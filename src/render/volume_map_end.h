@@ -18,12 +18,17 @@
 #include "scene/scene_desc.h"
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 namespace fogmap {
 
 /// advanced.gather_tau > 0: a path ends by its vertex kLatestEndFactor × gather_depth.
 inline constexpr int kLatestEndFactor = 4;
+
+/// The edge of the cube of a ball's volume, (4π/3)^⅓ r: where σ_s over a ball is wanted, its
+/// average over this cube stands in (a box average is a summed-volume lookup).
+inline float equal_volume_edge(float radius) { return std::cbrt(4.0f * kPi / 3.0f) * radius; }
 
 /// σ_s averaged over a ball of radius r about any point, for every medium together: a dense grid
 /// over the media's bounds (grown by r) of the box average, over the equal-volume cube, of σ_s at

@@ -110,6 +110,14 @@ TEST(SigmaTable, CubeAveragesMatchALinearRampAndAHalfFilledCube) {
 // 0.8 σ_s × 3 × 2 h² / (8 w edge) = 0.6 σ_s edge / (w n²): 1e-3 σ_s at edge 1.4 and n = 96.
 // A cube of twice or half the edge moves the averages by 0.01-0.1 σ_s here (e.g. at x = 2.0³,
 // edge 0.6: 0.359 against 0.327 at edge 1.2 and 0.437 at 0.3), ten times the tolerance or more.
+TEST(SigmaTable, TheEqualVolumeCubeHoldsTheBallsVolume) {
+    // The smaller ball's σ_s is averaged over this cube: its volume must be the ball's, 4/3 π r³.
+    for (float r : {1e-3f, 0.25f, 1.0f, 37.0f}) {
+        const double edge = equal_volume_edge(r), ball = 4.0 / 3.0 * 3.14159265358979 * r * r * r;
+        EXPECT_NEAR(edge * edge * edge / ball, 1.0, 1e-6) << r;
+    }
+}
+
 TEST(SigmaTable, CubeAverageMatchesABruteForceAverageOverTheCubeOfItsEdge) {
     const int voxels = 40, n = 96;
     const float voxel = 0.1f, low = 0.2f, high = 1.0f;
