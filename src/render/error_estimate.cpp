@@ -119,8 +119,8 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     const int bx = (x.width + kBlock - 1) / kBlock, by = (x.height + kBlock - 1) / kBlock;
     // Per block and batch: the draws of the block's relative squared error.
     std::vector<double> draws(size_t(bx) * by * k, 0.0), parts(x.pixels.size(), 0.0);
-    // Per block, the variance of one draw were the values normal: 2 (v w)² a value. It stands in
-    // where the draws cannot tell (two batches deviate alike) or tell less.
+    // Per block, the variance of one draw were the values normal: 2 (v w)² a value. A floor under
+    // the draws' spread, and alone where they cannot tell (two batches deviate alike).
     std::vector<double> gauss(size_t(bx) * by, 0.0);
     e->variance = Image(x.width, x.height);
     double total = 0.0;
