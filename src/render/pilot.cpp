@@ -256,8 +256,8 @@ RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
     const SceneDesc desc = piloted_desc(file, setup);
     if (desc.progressive.enabled()) {
         setup.set_reason(
-            "auto: media under sun, sky or area lights, and progressive iterations, which the "
-            "photon integrator alone runs (no pilot)");
+            "auto: media under sun, sky or area lights, and progressive iterations (a count, a "
+            "time budget or a target): photon mapping, whose radii shrink with them (no pilot)");
         return setup;
     }
     const Pilot share = pilot_share(desc);
