@@ -98,6 +98,7 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
     const bool progressive = setup.photon() && desc.progressive.enabled();
     row.spp = progressive ? setup.run.render.spp : desc.render.spp;  // as the run takes it
     row.repeats = std::max(repeats, 1);
+    row.measured = !reference.pixels.empty();
     std::vector<std::vector<double>> phases(kBenchPhases.size());
     std::vector<double> totals, rmse, rel_mse, bias, est, est_lo, est_hi;
     for (int rep = 0; rep < row.repeats; ++rep) {
@@ -118,7 +119,6 @@ BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& referen
         est.push_back(own.rel_mse);
         est_lo.push_back(own.lo);
         est_hi.push_back(own.hi);
-        row.measured = !reference.pixels.empty();
         if (!row.measured) continue;
         const ImageError e = image_error(result.film.beauty, reference);
         rmse.push_back(e.rmse);

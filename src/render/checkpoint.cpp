@@ -70,17 +70,16 @@ std::string header(const std::string& path) {
     std::string head(std::strlen(kMagic) + 8, '\0');
     in.read(head.data(), std::streamsize(head.size()));
     head.resize(size_t(in.gcount()));
+    if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return head;
     const size_t old = std::strlen(kOldMagic);
-    if (head.compare(0, std::strlen(kMagic), kMagic) != 0 && head.size() > old + 1 &&
-        head.compare(0, old, kOldMagic) == 0 && (head[old] == '1' || head[old] == '2') &&
-        head[old + 1] == '\n')
-        throw InputError(path, "format",
-                         std::string("written by an older fogmap (format ") + head[old] +
-                             "); remove it to start again");
-    if (head.compare(0, std::strlen(kMagic), kMagic) != 0)
-        throw InputError(path, "format",
-                         "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 3\")");
-    return head;
+    for (const char format : {'1', '2'})
+        if (head.compare(0, old, kOldMagic) == 0 &&
+            head.compare(old, 2, std::string{format, '\n'}) == 0)
+            throw InputError(path, "format",
+                             std::string("written by an older fogmap (format ") + format +
+                                 "); remove it to start again");
+    throw InputError(path, "format",
+                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 3\")");
 }
 
 /// The fields of a checkpoint of the right size and checksum, each checked against the run.

@@ -39,4 +39,9 @@ inline constexpr double kTailShare = 0.5;
 /// The estimate from `film`'s beauty, batches and batch shares.
 ErrorEstimate estimate_error(const Film& film);
 
+/// Whether `e` meets a target relMSE: valid, and its 95% upper bound at most `target`.
+inline bool meets_target(const ErrorEstimate& e, double target) {
+    return e.valid && e.rel_mse.hi <= target;
+}
+
 }  // namespace fogmap

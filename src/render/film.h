@@ -227,13 +227,14 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
             const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state,
                                        PixelSample{s, spp, jitter_key, x, y});
-            if (!is_finite(layered ? c.layer_sum() : c.beauty)) {
+            const Color beauty = layered ? c.layer_sum() : c.beauty;
+            if (!is_finite(beauty)) {
                 ++dropped;
                 continue;
             }
             if (!layered) sum.beauty += c.beauty;
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
-            batch[size_t((s / unit) % kBatches)] += layered ? c.layer_sum() : c.beauty;
+            batch[size_t((s / unit) % kBatches)] += beauty;
         }
         for (int b = 0; b < kBatches; ++b)
             film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];

@@ -448,7 +448,7 @@ bool RunLoop::target_reached() {
     bool reached = false;
     if (root_) {
         const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)));
-        reached = e.valid && e.rel_mse.hi <= desc_.progressive.target_relmse;
+        reached = meets_target(e, desc_.progressive.target_relmse);
         if (!quiet_)
             std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n",
                          int(counts_.iterations), e.rel_mse.value, e.rel_mse.lo, e.rel_mse.hi,
@@ -574,7 +574,7 @@ void RunLoop::estimate() {
     r.tail_share = e.tail_share;
     r.tail = e.tail;
     r.target = desc_.progressive.target_relmse;
-    r.reached = r.target > 0.0 && e.valid && e.rel_mse.hi <= r.target;
+    r.reached = r.target > 0.0 && meets_target(e, r.target);
     r.iterations = int(counts_.iterations);
     if (setup_.photon())
         r.excludes = progressive_ ? "the photon maps' bias (their gather radii blur the light)"

@@ -459,9 +459,7 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
             d.progressive.iterations = size.iterations;
             s.schedule = size.reason;
         }
-        s.progressive = d.progressive.enabled();
     } else if (d.progressive.enabled()) {
-        s.progressive = true;
         s.schedule =
             "iterations of render.spp = " + std::to_string(d.render.spp) + " fresh samples a pixel";
     }
@@ -472,6 +470,7 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
         s.schedule += std::string(s.schedule.empty() ? "" : "; ") + "at most " +
                       std::to_string(kTargetIterations) + " iterations to reach the target";
     }
+    s.progressive = p.enabled();
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
     s.photons.volume_attempts = volume_attempts(d);
