@@ -85,10 +85,11 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     const SceneDesc& desc = setup.run;
     const double pixels = double(desc.camera.width) * desc.camera.height;
     const bool photon = setup.photon();
-    const int layers = (photon ? 1 + kLayerCount : 1) + kBatches;
-    // Films of the beauty, layers and batches (render/film.h): the run's and the iteration's it
-    // adds (pipeline.cpp); the reference and, for progressive runs, the running mean compared
-    // with it; the estimate's variance and samples layers; the PNG's 8-bit RGB and its encoding.
+    const int layers = (photon ? 1 + kLayerCount : 1) + kBatches + 1;
+    // Films of the beauty, layers, batches and map variance (render/film.h): the run's and the
+    // iteration's it adds (pipeline.cpp); the reference and, for progressive runs, the running
+    // mean compared with it; the estimate's variance and samples layers; the PNG's 8-bit RGB and
+    // its encoding.
     const double films = pixels * sizeof(Color) * layers * 2;
     const double others =
         pixels * (with_reference ? 2 * sizeof(Color) : 0) + pixels * 2 * sizeof(Color) + pixels * 6;

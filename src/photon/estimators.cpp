@@ -74,8 +74,8 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
     return r[r.size() / 2];
 }
 
-Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,
-                         const PhaseMix& phase, int k, float r_max, NeighborList& scratch) {
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
+                         int k, float r_max, NeighborList& scratch, BatchSums* batches) {
     find(map, x, k, r_max, scratch);
     if (scratch.empty()) return Color(0.0f);
     const float r2 = estimate_radius2(scratch, k, r_max);
@@ -86,7 +86,9 @@ Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,
     for (size_t i = 0; i < scratch.size(); ++i) {
         if (i == skip) continue;
         const Photon& p = photons[scratch[i].index];
-        sum += phase.eval(glm::dot(p.direction(), wo)) * p.power();
+        const Color c = phase.eval(glm::dot(p.direction(), wo)) * p.power();
+        sum += c;
+        if (batches) (*batches)[size_t(p.batch())] += average(c);
     }
     const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
     return sum * (map.photon_power / volume);

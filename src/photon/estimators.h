@@ -10,6 +10,7 @@
 #include "media/phase.h"
 #include "photon/photon_pass.h"
 
+#include <array>
 #include <vector>
 
 namespace fogmap {
@@ -27,8 +28,10 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
                           float r_max);
 
 /// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
-/// function at x applied to each photon's travel direction.
-Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo,
-                         const PhaseMix& phase, int k, float r_max, NeighborList& scratch);
+/// function at x applied to each photon's travel direction. `batches` (may be null): each
+/// photon batch's part of the sum (Photon::batch), the channels' average, in any common unit.
+using BatchSums = std::array<float, Photon::kBatches>;
+Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
+                         int k, float r_max, NeighborList& scratch, BatchSums* batches = nullptr);
 
 }  // namespace fogmap

@@ -1,8 +1,8 @@
 #pragma once
 // The photon record: 20 bytes, pointer-free. Position as float[3]; power as shared-exponent RGBE
 // relative to its map's photon power (grey photons store exactly 1, so the encoding adds no error
-// there); a direction as a 16-bit octahedral code (see dir_oct); the kd-tree split axis; flags.
-// Plain data; thread-safe to read.
+// there); a direction as a 16-bit octahedral code (see dir_oct); the kd-tree split axis; flags
+// and the photon's batch. Plain data; thread-safe to read.
 
 #include "core/math.h"
 
@@ -22,6 +22,11 @@ struct Photon {
     enum Flags : uint8_t {
         kCaustic = 1,  ///< global-map photon whose path is L S+ D (also in the caustic map)
     };
+    /// Photon batches: every photon of one path is in the same one of kBatches (PhotonPass sets
+    /// it from the path's stream and emission index), so a lookup summing one batch's photons
+    /// reads a map of independent paths, kBatches times sparser (render/volume_map_end.h).
+    static constexpr int kBatches = 8;
+    static constexpr int kBatchShift = 1;  ///< flags' bits 1-3 hold the batch
 
     float pos[3];
     uint32_t power_rgbe;  ///< power relative to the map's photon power
@@ -43,6 +48,11 @@ struct Photon {
     Vec3 position() const { return Vec3(pos[0], pos[1], pos[2]); }
     Color power() const { return decode_rgbe(power_rgbe); }
     Vec3 direction() const { return decode_oct16(dir_oct); }
+    int batch() const { return (flags >> kBatchShift) & (kBatches - 1); }
+    void set_batch(int b) {
+        flags = static_cast<uint8_t>((flags & ~((kBatches - 1) << kBatchShift)) |
+                                     ((b & (kBatches - 1)) << kBatchShift));
+    }
     int axis() const { return split_axis; }
     void set_axis(int a) { split_axis = static_cast<uint8_t>(a); }
 };

@@ -595,6 +595,7 @@ void PhotonPass::merge(const Job& job, const ChunkOut& o, bool first,
         const uint64_t e = job.begin + t.index;
         if (p.closed && e >= p.stop_at) continue;
         maps_[m]->photons.push_back(t.photon);
+        maps_[m]->photons.back().set_batch(static_cast<int>(mix64(mix64(s) ^ e)));
         photon_stream_[m].push_back(static_cast<uint16_t>(s));
         ++p.stored;
         p.power += average(t.photon.power());

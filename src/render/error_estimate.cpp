@@ -111,6 +111,24 @@ double top_share(std::vector<double> parts) {
     return sum / total;
 }
 
+/// A block's part of the estimate from Film::map_variance, which no batch draws (signed per
+/// value, as its estimate is: a pixel's is noisy about a small mean).
+struct MapPart {
+    double sum = 0.0, squares = 0.0;
+    int n = 0;
+    void add(double v) {
+        sum += v;
+        squares += v * v;
+        ++n;
+    }
+    /// The normal model's variance of the block's error, 2 v² a value, plus the estimate's own:
+    /// its values' spread, as if independent (which the image's heterogeneity only widens).
+    double variance() const {
+        const double spread = n > 1 ? (squares - sum * sum / n) * n / (n - 1) : 0.0;
+        return 2.0 * squares + spread;
+    }
+};
+
 /// The estimate, its per-pixel variance and the tail flag.
 void estimate_variance(const Film& film, const std::vector<int>& active, const Weights& weight,
                        ErrorEstimate* e) {
@@ -122,17 +140,21 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     // Per block, the variance of one draw were the values normal: 2 (v w)² a value. A floor under
     // the draws' spread, and alone where they cannot tell (two batches deviate alike).
     std::vector<double> gauss(size_t(bx) * by, 0.0);
+    std::vector<MapPart> maps(size_t(bx) * by);
+    const bool map_part = !film.map_variance.pixels.empty();
     e->variance = Image(x.width, x.height);
     double total = 0.0;
     for (int py = 0; py < x.height; ++py)
         for (int px = 0; px < x.width; ++px) {
-            const size_t p = size_t(py) * x.width + px;
-            double* const block = &draws[(size_t(py / kBlock) * bx + px / kBlock) * k];
+            const size_t p = size_t(py) * x.width + px, b = size_t(py / kBlock) * bx + px / kBlock;
+            double* const block = &draws[b * k];
             for (int c = 0; c < 3; ++c) {
-                const double w = weight(p, c), v = pixel_variance(film, active, p, c, w, block);
-                e->variance.pixels[p][c] = float(v);
+                const double w = weight(p, c), m = map_part ? film.map_variance.pixels[p][c] : 0.0;
+                const double v = pixel_variance(film, active, p, c, w, block) + m;
+                e->variance.pixels[p][c] = float(std::max(v, 0.0));
                 parts[p] += v * w;
-                gauss[size_t(py / kBlock) * bx + px / kBlock] += 2.0 * (v * w) * (v * w);
+                gauss[b] += 2.0 * (v * w) * (v * w);
+                if (map_part) maps[b].add(m * w);
             }
             total += parts[p];
         }
@@ -141,9 +163,11 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     double a2 = 0.0, var = 0.0;
     for (int i : active) a2 += std::pow((1.0 - film.batch_share[size_t(i)]) / double(k - 1), 2);
     for (size_t t = 0; t < draws.size(); t += k)
-        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]);
+        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]) +
+               maps[t / k].variance();
     const double values = 3.0 * double(x.pixels.size()), half = kZ95 * std::sqrt(var * (1.0 + a2));
     e->rel_mse = {total / values, std::max(0.0, (total - half) / values), (total + half) / values};
+    for (double& part : parts) part = std::max(part, 0.0);
     e->tail_share = top_share(std::move(parts));
     e->tail = e->tail_share > kTailShare;
 }

@@ -8,9 +8,10 @@
 // the error of this very image: it adds the spread of one image's error about its expectation to
 // the estimate's own, both measured per 16 x 16 block from the batches (blocks are taken as
 // independent, pixels within one are not). It holds what the batches repeat: the camera samples,
-// and the photon maps when batches are whole iterations with maps of their own; not a photon
-// method's bias, and not fireflies that have not been drawn yet (the tail flag says when the
-// drawn ones carry it). Pure and deterministic.
+// and the photon maps when batches are whole iterations with maps of their own; the variance one
+// map read by every sample adds where the film has it (Film::map_variance, from photon batches);
+// not a photon method's bias, and not fireflies that have not been drawn yet (the tail flag says
+// when the drawn ones carry it). Pure and deterministic.
 
 #include "core/image.h"
 #include "render/film.h"

@@ -45,6 +45,10 @@ inline constexpr int kBatches = 8;
 struct FilmSample {
     std::array<Color, kLayerCount> layers{};
     Color beauty{0.0f};  ///< unlayered integrators only
+    /// Where the sample read a photon map in batches (render/volume_map_end.h, PhotonBatches):
+    /// its value with batch t's map alone less its value, per photon batch t.
+    bool photon_batches = false;
+    std::array<Color, kBatches> photon_delta{};
     Color& operator[](Layer l) { return layers[static_cast<int>(l)]; }
     Color layer_sum() const {
         Color sum(0.0f);
@@ -82,6 +86,10 @@ struct Film {
     std::vector<Image> layers;   ///< kLayerCount images, or none
     std::vector<Image> batches;  ///< kBatches images
     std::array<double, kBatches> batch_share{};
+    /// Per pixel, the variance of the mean that one photon map read by every sample adds, which
+    /// the batches cannot see (PhotonBatchSums): zero where no sample read a map in batches,
+    /// empty for a sum of iterations (each has a map of its own, and batches hold it).
+    Image map_variance;
     Image variance, samples;  ///< written as EXR layers when set
 
     Film() = default;
@@ -196,6 +204,38 @@ inline std::array<float, kBatches> batch_weights(int spp, int unit, Film* film) 
     return inv;
 }
 
+/// A pixel's samples' photon_delta summed per photon batch t and sample batch b, and from them
+/// the variance one photon map read by every sample adds to the pixel's mean. The deviation of
+/// batch t's estimate from the whole, averaged over one sample batch, is the map's error that
+/// the pixel's samples share plus noise of those samples' own; over two independent sample
+/// batches only the shared error correlates, so the mean product of pairs is (K − 1) times its
+/// variance (K photon batches, each K times sparser). Unbiased for any batch sizes.
+struct PhotonBatchSums {
+    std::array<std::array<Color, kBatches>, kBatches> sum{};  ///< [photon batch][sample batch]
+    bool any = false;
+    void add(const std::array<Color, kBatches>& delta, size_t b) {
+        any = true;
+        for (size_t t = 0; t < size_t(kBatches); ++t) sum[t][b] += delta[t];
+    }
+    /// `inv`: 1 / (samples in the sample batch), 0 for an empty one.
+    Color variance(const std::array<float, kBatches>& inv) const {
+        int active = 0;
+        for (float w : inv) active += w > 0.0f;
+        if (!any || active < 2) return Color(0.0f);
+        DVec3 pairs(0.0);
+        for (const auto& row : sum) {
+            DVec3 all(0.0), squares(0.0);
+            for (size_t b = 0; b < size_t(kBatches); ++b) {
+                const DVec3 a = DVec3(row[b]) * double(inv[b]);
+                all += a;
+                squares += a * a;
+            }
+            pairs += all * all - squares;
+        }
+        return Color(pairs / double(kBatches * (kBatches - 1) * active * (active - 1)));
+    }
+};
+
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
@@ -203,7 +243,7 @@ inline std::array<float, kBatches> batch_weights(int spp, int unit, Film* film) 
 /// (counted) and the film holds the mean over spp, and the mean over each batch's samples (a
 /// dropped sample counts as 0 in both). state = make_state() per tile; state.rays,
 /// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
-/// *stats (may be null).
+/// *stats (may be null). Samples that read a photon map in batches give film.map_variance.
 /// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
 /// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
 /// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
@@ -212,6 +252,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
                  int unit, bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
+    film.map_variance = Image(w, h);
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
     const std::array<float, kBatches> batch_inv = batch_weights(spp, unit, &film);
@@ -219,6 +260,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     auto shade = [&](int x, int y, auto& state) {
         FilmSample sum;
         std::array<Color, kBatches> batch{};
+        PhotonBatchSums photons;
         uint64_t dropped = 0;
         const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
         const uint64_t jitter_key = pixel_key(seed, pixel);
@@ -234,10 +276,13 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             }
             if (!layered) sum.beauty += c.beauty;
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
-            batch[size_t((s / unit) % kBatches)] += beauty;
+            const size_t b = size_t((s / unit) % kBatches);
+            batch[b] += beauty;
+            if (c.photon_batches) photons.add(c.photon_delta, b);
         }
         for (int b = 0; b < kBatches; ++b)
             film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];
+        film.map_variance.at(x, y) = photons.variance(batch_inv);
         film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
         for (int l = 0; layered && l < kLayerCount; ++l)
             film.layers[l].at(x, y) = sum.layers[l] * inv;

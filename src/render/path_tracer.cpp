@@ -289,7 +289,11 @@ void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, C
     ++ts.lookups;
     if (policy_.kind() == MediumVertex::EndInMap) {
         ts.neighbors.clear();
-        *L += p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors);
+        VolumeMapEnd::BatchShares shares;
+        const Color map =
+            p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors, &shares);
+        *L += map;
+        for (size_t t = 0; t < shares.size(); ++t) ts.photon_delta[t] += (shares[t] - 1.0f) * map;
         ts.gathered += ts.neighbors.size();
     } else {
         *L += p.beta * policy_.split().grid->at(x, p.ray.d, phase);
@@ -343,6 +347,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
         ts.splits_left = AdjointSplit::kSplitBudget;
     }
     p.prev_p = camera_ray.o;
+    ts.photon_delta.fill(Color(0.0f));
     if (ts.media.empty() || policy_.kind() != MediumVertex::EndInMap) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
 }
@@ -474,15 +479,20 @@ bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, Thre
     return survive(p.depth, &p.beta, rng);
 }
 
+static_assert(Photon::kBatches == kBatches, "FilmSample::photon_delta: one per photon batch");
+
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const PathPolicy& policy, TileShare tiles) {
     const PathTracer tracer(scene, settings.max_depth, policy);
+    const bool batched = policy.kind() == MediumVertex::EndInMap && policy.end().batched();
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false,
         strata_unit(settings.spp), quiet, stats, [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
+            sample.photon_batches = batched;
+            sample.photon_delta = ts.photon_delta;
             return sample;
         });
 }

@@ -57,6 +57,7 @@ std::vector<int64_t> film_bits(const Film& film) {
     put(film.beauty);
     for (const Image& layer : film.layers) put(layer);
     for (const Image& batch : film.batches) put(batch);
+    put(film.map_variance);
     return bits;
 }
 
@@ -73,6 +74,7 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     get(film->beauty);
     for (Image& layer : film->layers) get(layer);
     for (Image& batch : film->batches) get(batch);
+    get(film->map_variance);
 }
 
 /// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
@@ -340,8 +342,9 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                                                    : float(first_gather_->volume.k) *
                                                          std::pow(gather.volume.radius / r1, 3.0f);
         it->volume_k = k;
+        // One map for every sample: its photon batches give the film's batches its noise.
         end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
-                    desc_.volume.gather_tau, &end_buffers_);
+                    desc_.volume.gather_tau, &end_buffers_, /*batched=*/!progressive_);
         report_.precompute_nodes += end->nodes();
         if (end->wants_table()) {
             if (!sigma_table_) {
@@ -557,8 +560,9 @@ void RunLoop::finish_report() {
     estimate();
 }
 
-/// The error estimate from the film's batches, its variance and samples layers, and what it
-/// cannot see: a photon method's bias, and its one map's noise when every sample read it.
+/// The error estimate from the film's batches (and map_variance), its variance and samples
+/// layers, and what it cannot see: a photon method's bias, and the photon gather's maps' noise
+/// when one set serves every sample.
 void RunLoop::estimate() {
     if (o_.silent) return;  // auto's pilot runs
     const Timer timer;
@@ -575,11 +579,12 @@ void RunLoop::estimate() {
     r.tail = e.tail;
     r.target = desc_.progressive.target_relmse;
     r.reached = r.target > 0.0 && meets_target(e, r.target);
-    r.iterations = int(counts_.iterations);
+    r.iterations = progressive_ ? int(counts_.iterations) : 1;  // ranks of a plain run add 1 each
     if (setup_.photon())
-        r.excludes = progressive_ ? "the photon maps' bias (their gather radii blur the light)"
-                                  : "the photon map's own noise and its bias (one map serves "
-                                    "every sample; its gather radius blurs the light)";
+        r.excludes = progressive_ || setup_.method == Method::MapEnd
+                         ? "the photon maps' bias (their gather radii blur the light)"
+                         : "the photon maps' own noise and their bias (one set of maps serves "
+                           "every sample; their gather radii blur the light)";
     out_.film.variance = std::move(e.variance);
     out_.film.samples = Image(report_.width, report_.height);
     std::fill(out_.film.samples.pixels.begin(), out_.film.samples.pixels.end(),

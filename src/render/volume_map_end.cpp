@@ -196,7 +196,7 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth, float k, float max_tau, Buffers* recycle)
+                           int depth, float k, float max_tau, Buffers* recycle, bool batched)
     : recycle_(recycle),
       map_(map),
       radius_(radius),
@@ -204,13 +204,16 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
       density_(media, radius, recycle ? &recycle->density : nullptr),
       phase_fits_(moment_grid_fits(media)),
       k_(k),
-      max_tau_(max_tau) {
+      max_tau_(max_tau),
+      batched_(batched) {
     if (recycle) {  // given back whole by the destructor, whatever is built here
         slot_ = std::move(recycle->slot);
         moments_ = std::move(recycle->moments);
         counts_ = std::move(recycle->counts);
-        slot_.clear();  // empty until built: no moments, no counts
+        batch_power_ = std::move(recycle->batch_power);
+        slot_.clear();  // empty until built: no moments, no counts, no batches
         counts_.clear();
+        batch_power_.clear();
     }
     // Without moments the grid is for AdaptiveRadius's counts alone.
     if (density_.nodes() == 0 || density_.cell() > 0.6f * radius || (!phase_fits_ && !(k > 0.0f)))
@@ -240,6 +243,10 @@ bool VolumeMapEnd::assign_slots() {
     slot_.assign(density_.nodes(), -1);
     for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
     moments_.assign(nodes.size(), Moments{});
+    if (batched_ && phase_fits_) {
+        if (recycle_) reserve_recycled(&batch_power_, nodes.size());
+        batch_power_.assign(nodes.size(), BatchPower{});
+    }
     return true;
 }
 
@@ -295,6 +302,7 @@ void VolumeMapEnd::add_photon(const Photon& p, const Lattice& g, int k) {
             m.m0 += c;
             for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
             for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
+            if (!batch_power_.empty()) batch_power_[s][p.batch()] += average(c);
         }
 }
 
@@ -304,6 +312,7 @@ VolumeMapEnd::~VolumeMapEnd() {
     recycle_->slot = std::move(slot_);
     recycle_->moments = std::move(moments_);
     recycle_->counts = std::move(counts_);
+    recycle_->batch_power = std::move(batch_power_);
 }
 
 bool VolumeMapEnd::interpolate(const Vec3& x, Color* density, Moments* m,
@@ -397,38 +406,69 @@ Color VolumeMapEnd::lean(const KernelDensity::Corners& c, const Vec3& x, const C
 }
 
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
-                                NeighborList& scratch) const {
+                                NeighborList& scratch, BatchShares* shares) const {
+    if (shares) shares->fill(1.0f);
     // σ̄_s and the photon counts from the grid (its moments too where it holds them).
     Color density(0.0f);
     Moments m;
     KernelDensity::Corners c;
     if (!interpolate(x, &density, &m, &c)) return Color(0.0f);
+    if (!batched_) shares = nullptr;
     // LeanCorrection (header), where the grid holds moments; bounded by half the estimate.
     const auto corrected = [&](const Color& e, float rho) {
         if (!interpolates()) return e;
         return e - glm::clamp(lean(c, x, density, -dir, phase, rho), -0.5f * e, 0.5f * e);
     };
-    if (crowded(m.count))
-        return corrected(smaller_ball(x, dir, phase, m.count, scratch),
-                         radius_ * std::cbrt(k_ / m.count));
+    BatchSums parts{};
+    if (crowded(m.count)) {
+        const Color e = smaller_ball(x, dir, phase, m.count, scratch, shares ? &parts : nullptr);
+        if (shares) shares_of(parts, shares);
+        return corrected(e, radius_ * std::cbrt(k_ / m.count));
+    }
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
     Color collisions(0.0f);
     if (interpolates()) {
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
         collisions = glm::max(phase_sum(m, -dir, phase), Color(0.0f)) *
                      (map_.photon_power * kInvFourPi / volume);
+        if (shares) grid_shares(c, average(m.m0), shares);
     } else {
-        collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch);
+        collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch,
+                                        shares ? &parts : nullptr);
+        if (shares) shares_of(parts, shares);
     }
     return corrected(divide(collisions, density), radius_);
+}
+
+// PhotonBatches (header), from the photons a kd-tree lookup gathered.
+void VolumeMapEnd::shares_of(const BatchSums& parts, BatchShares* shares) {
+    float all = 0.0f;
+    for (float part : parts) all += part;
+    if (!(all > 0.0f)) return;
+    for (size_t b = 0; b < parts.size(); ++b)
+        (*shares)[b] = float(Photon::kBatches) * parts[b] / all;
+}
+
+// PhotonBatches (header), from the grid: the batch's power interpolated as the moments are
+// (`all`: their m0's channel average, the sum over batches).
+void VolumeMapEnd::grid_shares(const KernelDensity::Corners& c, float all,
+                               BatchShares* shares) const {
+    if (batch_power_.empty() || !(all > 0.0f)) return;
+    BatchShares part{};
+    for (int n = 0; n < 8; ++n) {
+        const int32_t s = slot_[c.node[n]];
+        if (s < 0) continue;
+        for (size_t b = 0; b < part.size(); ++b) part[b] += c.weight[n] * batch_power_[s][b];
+    }
+    for (size_t b = 0; b < part.size(); ++b) (*shares)[b] = float(Photon::kBatches) * part[b] / all;
 }
 
 // AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's
 // equal-volume cube.
 Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                                 NeighborList& scratch) const {
+                                 NeighborList& scratch, BatchSums* parts) const {
     const float r = radius_ * std::cbrt(k_ / n);
-    return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch),
+    return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts),
                   table_->cube_average(x, equal_volume_edge(r)));
 }
 

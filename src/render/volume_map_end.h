@@ -14,6 +14,7 @@
 
 #include "media/medium.h"
 #include "media/phase.h"
+#include "photon/estimators.h"
 #include "photon/photon_pass.h"
 #include "scene/scene_desc.h"
 
@@ -105,10 +106,12 @@ public:
     /// With k > 0 and a table (set_table), lookups where the grid's ball holds more than 2k
     /// photons gather within a smaller radius instead (see AdaptiveRadius below).
     /// `recycle` (may be null): memory the previous map's grids left (see Buffers), taken and
-    /// given back when this one is destroyed.
+    /// given back when this one is destroyed. `batched`: lookups can also say a photon batch's
+    /// share (see PhotonBatches below).
     struct Buffers;
     VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius, int depth,
-                 float k = 0.0f, float max_tau = 0.0f, Buffers* recycle = nullptr);
+                 float k = 0.0f, float max_tau = 0.0f, Buffers* recycle = nullptr,
+                 bool batched = false);
     ~VolumeMapEnd();
     VolumeMapEnd(const VolumeMapEnd&) = delete;
     VolumeMapEnd& operator=(const VolumeMapEnd&) = delete;
@@ -130,8 +133,19 @@ public:
     /// ∫ f(ω, ω') L_i(x, ω') dω' towards −dir (dir: the path's travel direction into x) for the
     /// light that arrived after at least one interaction, blurred over the ball of radius r.
     /// `scratch`: the calling thread's.
-    Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
-                      NeighborList& scratch) const;
+    /// `shares` (may be null; a batched map's only): PhotonBatches' factor of every batch.
+    using BatchShares = std::array<float, Photon::kBatches>;
+    Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase, NeighborList& scratch,
+                      BatchShares* shares = nullptr) const;
+    bool batched() const { return batched_; }
+
+    // PhotonBatches. Every photon is in one of Photon::kBatches batches of whole paths, so the
+    // photons of one batch make an independent map kBatches times sparser. A lookup's estimate
+    // from batch b alone is taken as the whole estimate times share_b = kBatches × (b's part of
+    // what it gathered): a kd-tree lookup's part of the sum of phase × power, exactly; a grid
+    // lookup's part of the power, the photons' directions taken as the whole's. From the batches'
+    // estimates a film tells the variance one map read by every sample adds, which its batches of
+    // samples cannot see (render/film.h, map_variance).
 
     /// Lookups interpolate the photons' directional moments (see Moments below); else they
     /// search the kd-tree, and the grid (when built) gives only the photon counts.
@@ -179,10 +193,14 @@ public:
     static constexpr float kLeanMinOffset = 0.02f;
 
 private:
+    /// PhotonBatches' shares from each batch's part of a kd-tree lookup's sum.
+    static void shares_of(const BatchSums& parts, BatchShares* shares);
+    /// PhotonBatches' shares from the grid at corners c (`all`: the lookup's power).
+    void grid_shares(const KernelDensity::Corners& c, float all, BatchShares* shares) const;
     /// n photons within r call for AdaptiveRadius.
     bool crowded(float n) const { return table_ && k_ > 0.0f && n > 2.0f * k_; }
     Color smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                       NeighborList& scratch) const;
+                       NeighborList& scratch, BatchSums* parts) const;
     // The estimate at a grid point p is Σ_p ΔΦ f(ω_p · ω_o) over the photons within r, and f's
     // Legendre series up to l = 2 makes it linear in the photons' moments Σ ΔΦ, Σ ΔΦ ω and
     // Σ ΔΦ ω ωᵀ: computed once per grid point, interpolated trilinearly at a lookup (one more
@@ -197,6 +215,9 @@ private:
             Color(0.0f), Color(0.0f), Color(0.0f)};  ///< Σ ΔΦ ω_a ω_b: xx, yy, zz, xy, xz, yz
     };
 
+    /// Per grid point: each photon batch's power, the channels' average (PhotonBatches).
+    using BatchPower = std::array<float, Photon::kBatches>;
+
 public:
     /// The grids' memory, kept between progressive iterations: a new map's vectors reuse the
     /// capacity of the last one's instead of faulting in fresh pages (docs/why.md).
@@ -206,6 +227,7 @@ public:
         std::vector<int32_t> slot;
         std::vector<Moments> moments;
         std::vector<float> counts;
+        std::vector<BatchPower> batch_power;
     };
 
 private:
@@ -239,10 +261,12 @@ private:
     std::vector<int32_t> slot_;     ///< per grid point: its moments' index, or −1 (no medium)
     std::vector<Moments> moments_;  ///< grid points with medium about them
     std::vector<float> counts_;     ///< their photon counts, packed for FineEnough's decision
+    std::vector<BatchPower> batch_power_;  ///< theirs, when batched_ and moments_ are built
     const SigmaTable* table_ = nullptr;
     float k_;
     float max_tau_;
     bool crowded_anywhere_ = false;
+    bool batched_;
 };
 
 }  // namespace fogmap

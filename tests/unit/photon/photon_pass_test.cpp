@@ -87,6 +87,34 @@ TEST(PhotonPass, OneAndTwoThreadsStoreIdenticalPhotons) {
     }
 }
 
+// Photon batches (photon/photon.h): a path's photons share one, so in the order they are stored
+// (a path's photons one after another) neighbours agree far more often than the 1/8 of
+// independent draws; and the batches split the paths evenly: each holds 1/8 of the photons within
+// 6 binomial deviations of the paths they come from (about 2 photons a path in this fog; the
+// bound takes 4).
+TEST(PhotonPass, APathsPhotonsShareABatchAndBatchesSplitTheMapEvenly) {
+    SceneDesc d;
+    d.lights.push_back(sun(Vec3(0.3f, -1.0f, 0.1f), 2.0f));
+    d.media.push_back(fog_box());
+    d.photons.volume = 20000;
+    const PhotonPassResult r = trace_photons(*load_scene(photon(d)), make_plan(photon(d)),
+                                             d.photons, d.march, d.render.seed, true);
+    ASSERT_TRUE(r.volume.has_value());
+    const std::vector<Photon>& photons = r.volume->photons;
+    std::array<double, Photon::kBatches> count{};
+    size_t same = 0;
+    for (size_t i = 0; i < photons.size(); ++i) {
+        count[size_t(photons[i].batch())] += 1.0;
+        if (i > 0 && photons[i].batch() == photons[i - 1].batch()) ++same;
+    }
+    const double n = double(photons.size()), paths = n / 4.0;
+    std::printf("%.0f photons, %llu paths emitted, neighbours in one batch %.3f\n", n,
+                (unsigned long long)r.emitted, double(same) / n);
+    EXPECT_GT(double(same) / n, 0.5);
+    for (double c : count)
+        EXPECT_NEAR(c / n, 1.0 / Photon::kBatches, 6.0 * std::sqrt(0.125 * 0.875 / paths));
+}
+
 TEST(PhotonPass, SceneThatStoresNothingStopsAtTheCapWithAWarning) {
     // A sun over a lone floor: every photon's first hit is direct light (not stored) and the
     // bounce escapes to the sky, so the global map never fills.

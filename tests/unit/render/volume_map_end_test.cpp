@@ -503,5 +503,52 @@ TEST(VolumeMapEnd, WhetherAPathEndsDoesNotFollowTheNoiseOfTheLookupsPhotons) {
     EXPECT_NEAR((ended / n_ended) / (all / points), 1.0, 0.02);
 }
 
+// PhotonBatches: a batched map's lookup, times a batch's share, is the lookup of a map holding
+// that batch's photons alone at kBatches times their power — computed here from such a map. Grey
+// photons pointing every way in a homogeneous medium: at g 0 the grid's lookups (the power's
+// share is then exact: the phase is flat), at g 0.8 the kd-tree's (each photon's phase × power).
+TEST(VolumeMapEnd, ABatchsShareOfALookupIsTheLookupOfItsPhotonsAlone) {
+    for (const float g : {0.0f, 0.8f}) {
+        Rng rng(17, 5);
+        std::vector<Photon> all, alone;
+        const int batch = 5;
+        for (int i = 0; i < 40000; ++i) {
+            const Vec3 p = 2.0f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - Vec3(1.0f);
+            const Vec3 travel = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
+            Photon photon(p, travel, Color(0.5f + rng.uniform()));
+            photon.set_batch(int(rng.uniform() * Photon::kBatches));
+            all.push_back(photon);
+            if (photon.batch() == batch) alone.push_back(photon);
+        }
+        ASSERT_GT(alone.size(), 4000u);
+        PhotonMap map_all, map_alone;
+        map_all.tree = KdTree<Photon>(std::move(all));
+        map_all.photon_power = 0.01f;
+        map_alone.tree = KdTree<Photon>(std::move(alone));
+        map_alone.photon_power = 0.01f * Photon::kBatches;
+        const std::vector<Medium> media{Medium::homogeneous(
+            {Color(2.0f, 1.0f, 0.5f), Color(0.1f), g}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
+        const float radius = 0.3f;
+        const VolumeMapEnd batched(map_all, media, radius, 2, 0.0f, 0.0f, nullptr, true);
+        const VolumeMapEnd own(map_alone, media, radius, 2);
+        ASSERT_EQ(batched.interpolates(), g == 0.0f);
+        const PhaseMix phase(g);
+        NeighborList scratch;
+        for (int i = 0; i < 20; ++i) {
+            const Vec3 x = 1.2f * Vec3(rng.uniform(), rng.uniform(), rng.uniform()) - 0.6f;
+            const Vec3 dir = sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform()));
+            VolumeMapEnd::BatchShares shares;
+            const Color whole = batched.inscattered(x, dir, phase, scratch, &shares);
+            const Color expected = own.inscattered(x, dir, phase, scratch);
+            double mean_share = 0.0;
+            for (float s : shares) mean_share += s / Photon::kBatches;
+            EXPECT_NEAR(mean_share, 1.0, 1e-5) << "g " << g << ", lookup " << i;
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(whole[c] * shares[batch], expected[c], 1e-4f * expected[c])
+                    << "g " << g << ", lookup " << i << ", channel " << c;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace fogmap
