@@ -88,7 +88,10 @@ Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, co
         const Photon& p = photons[scratch[i].index];
         const Color c = phase.eval(glm::dot(p.direction(), wo)) * p.power();
         sum += c;
-        if (batches) (*batches)[size_t(p.batch())] += average(c);
+        if (!batches) continue;
+        batches->all[size_t(p.batch())] += average(c);
+        if (2.0f * scratch[i].dist2 < r2)
+            batches->inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
     }
     const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
     return sum * (map.photon_power / volume);

@@ -29,8 +29,13 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
 
 /// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
 /// function at x applied to each photon's travel direction. `batches` (may be null): each
-/// photon batch's part of the sum (Photon::batch), the channels' average, in any common unit.
-using BatchSums = std::array<float, Photon::kBatches>;
+/// photon batch's part of the sum (Photon::batch), and each half's (batches 0-3, 4-7) of the sum
+/// over the photons within r/√2 (render/volume_map_end.h, RadiusBias): the channels' averages,
+/// in any common unit, added to what *batches holds.
+struct BatchSums {
+    std::array<float, Photon::kBatches> all{};
+    std::array<float, 2> inner{};
+};
 Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
                          int k, float r_max, NeighborList& scratch, BatchSums* batches = nullptr);
 

@@ -12,6 +12,8 @@ namespace fogmap {
 namespace {
 
 constexpr int kBlock = 16;         ///< pixels a side of the blocks taken as independent
+/// The bias part's blocks: smaller, as each gives its variance one degree of freedom.
+constexpr int kBiasBlock = 8;
 constexpr double kZ95 = 1.959964;  ///< two-sided 95% quantile of the normal distribution
 /// The neighbourhood whose mean stands for a pixel's in y²: 5 x 5 less the pixel (calibrated:
 /// docs/error-estimate.md).
@@ -39,18 +41,22 @@ Image half_mean(const Film& film, const std::vector<int>& active, size_t parity)
 }
 
 /// Each pixel's mean over its neighbours within kNeighbours pixels (a square less the pixel;
-/// fewer at the edges).
-Image neighbour_mean(const Image& in) {
+/// fewer at the edges); `block` > 0: with the pixel, and only those in its block x block block
+/// (so that blocks stay independent).
+Image neighbour_mean(const Image& in, int block = 0) {
     Image out(in.width, in.height);
+    const bool with_pixel = block > 0;
+    if (block <= 0) block = std::max(in.width, in.height);
     for (int y = 0; y < in.height; ++y)
         for (int x = 0; x < in.width; ++x) {
             Color sum(0.0f);
             int n = 0;
-            for (int v = std::max(0, y - kNeighbours);
-                 v <= std::min(in.height - 1, y + kNeighbours); ++v)
-                for (int u = std::max(0, x - kNeighbours);
-                     u <= std::min(in.width - 1, x + kNeighbours); ++u)
-                    if (u != x || v != y) {
+            const int x0 = x / block * block, y0 = y / block * block;
+            for (int v = std::max(y0, y - kNeighbours);
+                 v <= std::min({in.height - 1, y0 + block - 1, y + kNeighbours}); ++v)
+                for (int u = std::max(x0, x - kNeighbours);
+                     u <= std::min({in.width - 1, x0 + block - 1, x + kNeighbours}); ++u)
+                    if (with_pixel || u != x || v != y) {
                         sum += in.at(u, v);
                         ++n;
                     }
@@ -111,9 +117,9 @@ double top_share(std::vector<double> parts) {
     return sum / total;
 }
 
-/// A block's part of the estimate from Film::map_variance, which no batch draws (signed per
-/// value, as its estimate is: a pixel's is noisy about a small mean).
-struct MapPart {
+/// A block's part of the estimate from Film::map_variance, which no batch draws, signed per
+/// value as its estimate is (a pixel's is noisy about a small mean).
+struct BlockPart {
     double sum = 0.0, squares = 0.0;
     int n = 0;
     void add(double v) {
@@ -121,13 +127,48 @@ struct MapPart {
         squares += v * v;
         ++n;
     }
-    /// The normal model's variance of the block's error, 2 v² a value, plus the estimate's own:
-    /// its values' spread, as if independent (which the image's heterogeneity only widens).
-    double variance() const {
-        const double spread = n > 1 ? (squares - sum * sum / n) * n / (n - 1) : 0.0;
-        return 2.0 * squares + spread;
-    }
+    /// The variance of the block's sum of the estimates: their values' spread, as if independent
+    /// (which the image's heterogeneity only widens).
+    double spread() const { return n > 1 ? (squares - sum * sum / n) * n / (n - 1) : 0.0; }
+    /// The normal model's variance of the block's error from a variance, 2 v² a value.
+    double normal() const { return 2.0 * squares; }
 };
+
+/// The bias part: Σ over values of bias² w, and that sum's variance.
+struct BiasSum {
+    bool valid = false;  ///< the film has bias_halves
+    double sum = 0.0, variance = 0.0;
+};
+
+/// From Film::bias_halves (none: zero): each half averaged over 5 x 5 within its kBiasBlock
+/// block, bias² the mean of the two products of halves that differ in samples and in photons.
+/// The two are independent given the bias (no factor shared), so per block their mean varies
+/// as a quarter of their squared difference does; blocks are independent.
+BiasSum bias_sum(const Film& film, const Weights& weight) {
+    BiasSum out;
+    out.valid = film.bias_halves.size() == 4;
+    if (!out.valid) return out;
+    std::vector<Image> h;
+    for (const Image& half : film.bias_halves) h.push_back(neighbour_mean(half, kBiasBlock));
+    const int w = film.beauty.width, height = film.beauty.height;
+    const int bx = (w + kBiasBlock - 1) / kBiasBlock, by = (height + kBiasBlock - 1) / kBiasBlock;
+    std::vector<std::array<double, 2>> blocks(size_t(bx) * by, {0.0, 0.0});
+    for (int py = 0; py < height; ++py)
+        for (int px = 0; px < w; ++px) {
+            const size_t p = size_t(py) * w + px;
+            auto& block = blocks[size_t(py / kBiasBlock) * bx + px / kBiasBlock];
+            for (int c = 0; c < 3; ++c) {
+                const auto at = [&](int i) { return double(h[size_t(i)].pixels[p][c]); };
+                block[0] += at(0) * at(3) * weight(p, c);
+                block[1] += at(1) * at(2) * weight(p, c);
+            }
+        }
+    for (const auto& [a, b] : blocks) {
+        out.sum += 0.5 * (a + b);
+        out.variance += 0.25 * (a - b) * (a - b);
+    }
+    return out;
+}
 
 /// The estimate, its per-pixel variance and the tail flag.
 void estimate_variance(const Film& film, const std::vector<int>& active, const Weights& weight,
@@ -140,7 +181,7 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     // Per block, the variance of one draw were the values normal: 2 (v w)² a value. A floor under
     // the draws' spread, and alone where they cannot tell (two batches deviate alike).
     std::vector<double> gauss(size_t(bx) * by, 0.0);
-    std::vector<MapPart> maps(size_t(bx) * by);
+    std::vector<BlockPart> maps(size_t(bx) * by);
     const bool map_part = !film.map_variance.pixels.empty();
     e->variance = Image(x.width, x.height);
     double total = 0.0;
@@ -162,11 +203,20 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     // this image's error is one more draw.
     double a2 = 0.0, var = 0.0;
     for (int i : active) a2 += std::pow((1.0 - film.batch_share[size_t(i)]) / double(k - 1), 2);
-    for (size_t t = 0; t < draws.size(); t += k)
-        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]) +
-               maps[t / k].variance();
-    const double values = 3.0 * double(x.pixels.size()), half = kZ95 * std::sqrt(var * (1.0 + a2));
-    e->rel_mse = {total / values, std::max(0.0, (total - half) / values), (total + half) / values};
+    for (size_t t = 0; t < draws.size(); t += k) {
+        const BlockPart& m = maps[t / k];
+        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]) + m.normal() +
+               m.spread();
+    }
+    const double values = 3.0 * double(x.pixels.size());
+    const auto interval = [&](double sum, double variance) {
+        const double half = kZ95 * std::sqrt(variance);
+        return Interval{sum / values, std::max(0.0, (sum - half) / values), (sum + half) / values};
+    };
+    const BiasSum bias = bias_sum(film, weight);
+    e->bias_valid = bias.valid;
+    e->rel_mse = interval(total + bias.sum, var * (1.0 + a2) + bias.variance);
+    e->bias2 = interval(bias.sum, bias.variance);
     for (double& part : parts) part = std::max(part, 0.0);
     e->tail_share = top_share(std::move(parts));
     e->tail = e->tail_share > kTailShare;

@@ -9,9 +9,13 @@
 // the estimate's own, both measured per 16 x 16 block from the batches (blocks are taken as
 // independent, pixels within one are not). It holds what the batches repeat: the camera samples,
 // and the photon maps when batches are whole iterations with maps of their own; the variance one
-// map read by every sample adds where the film has it (Film::map_variance, from photon batches);
-// not a photon method's bias, and not fireflies that have not been drawn yet (the tail flag says
-// when the drawn ones carry it). Pure and deterministic.
+// map read by every sample adds where the film has it (Film::map_variance, from photon batches),
+// and the square of that map's bias from its radius (Film::bias_halves), reported apart too: the
+// products of halves that differ in samples and in photons, each averaged over the pixel's 5 x 5
+// neighbourhood within its 8 x 8 block (the bias varies on the scale of the map's radius, its
+// estimates' noise from pixel to pixel); not a photon method's bias otherwise, and not fireflies
+// that have not been drawn yet (the tail flag says when the drawn ones carry it). Pure and
+// deterministic.
 
 #include "core/image.h"
 #include "render/film.h"
@@ -26,7 +30,9 @@ struct Interval {
 struct ErrorEstimate {
     bool valid = false;       ///< at least two batches hold samples
     int batches = 0;          ///< batches holding samples
-    Interval rel_mse;         ///< lo >= 0
+    Interval rel_mse;         ///< lo >= 0; bias² included where estimated
+    bool bias_valid = false;  ///< the film has bias_halves
+    Interval bias2;           ///< the relMSE's bias² part (lo >= 0)
     double tail_share = 0.0;  ///< the share of rel_mse the top 0.1% of pixels carry
     bool tail = false;        ///< tail_share above one half
     Image variance;           ///< per pixel and channel, the variance of the mean (if valid)

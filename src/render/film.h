@@ -46,9 +46,10 @@ struct FilmSample {
     std::array<Color, kLayerCount> layers{};
     Color beauty{0.0f};  ///< unlayered integrators only
     /// Where the sample read a photon map in batches (render/volume_map_end.h, PhotonBatches):
-    /// its value with batch t's map alone less its value, per photon batch t.
-    bool photon_batches = false;
+    /// its value with batch t's map alone less its value, per photon batch t, and each photon
+    /// half's estimate of the map's bias in it (RadiusBias).
     std::array<Color, kBatches> photon_delta{};
+    std::array<Color, 2> bias_half{};
     Color& operator[](Layer l) { return layers[static_cast<int>(l)]; }
     Color layer_sum() const {
         Color sum(0.0f);
@@ -87,9 +88,13 @@ struct Film {
     std::vector<Image> batches;  ///< kBatches images
     std::array<double, kBatches> batch_share{};
     /// Per pixel, the variance of the mean that one photon map read by every sample adds, which
-    /// the batches cannot see (PhotonBatchSums): zero where no sample read a map in batches,
-    /// empty for a sum of iterations (each has a map of its own, and batches hold it).
+    /// the batches cannot see (PhotonBatchSums): empty unless the samples read a map in batches
+    /// (render_film), and for a sum of iterations (each has a map of its own, and batches hold
+    /// its noise).
     Image map_variance;
+    /// Per pixel, 2 s + h: the mean over sample half s of photon half h's estimate of the map's
+    /// bias (BiasHalves); kept and emptied as map_variance is.
+    std::vector<Image> bias_halves;
     Image variance, samples;  ///< written as EXR layers when set
 
     Film() = default;
@@ -236,6 +241,21 @@ struct PhotonBatchSums {
     }
 };
 
+/// A pixel's samples' bias_half summed per sample half (even and odd batches) and photon half.
+/// The means of two that differ in both halves are estimates of one bias from independent
+/// samples and photons, whose product is its square in expectation (render/error_estimate.h).
+struct BiasHalves {
+    std::array<std::array<Color, 2>, 2> sum{};  ///< [sample half][photon half]
+    std::array<int, 2> n{};                     ///< samples per sample half
+    void add(const std::array<Color, 2>& bias, size_t batch) {
+        for (size_t h = 0; h < 2; ++h) sum[batch % 2][h] += bias[h];
+        ++n[batch % 2];
+    }
+    Color mean(size_t s, size_t h) const {
+        return n[s] > 0 ? sum[s][h] / float(n[s]) : Color(0.0f);
+    }
+};
+
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
 /// tiles (the others stay 0), spp samples
 /// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
@@ -243,16 +263,21 @@ struct PhotonBatchSums {
 /// (counted) and the film holds the mean over spp, and the mean over each batch's samples (a
 /// dropped sample counts as 0 in both). state = make_state() per tile; state.rays,
 /// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
-/// *stats (may be null). Samples that read a photon map in batches give film.map_variance.
+/// *stats (may be null). `photon_batches`: samples read a photon map in batches (their
+/// photon_delta and bias_half are set), which give film.map_variance and film.bias_halves.
 /// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
 /// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
 /// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
-                 int unit, bool quiet, RenderStats* stats, MakeState&& make_state, Trace&& trace) {
+                 bool photon_batches, int unit, bool quiet, RenderStats* stats,
+                 MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
-    film.map_variance = Image(w, h);
+    if (photon_batches) {
+        film.map_variance = Image(w, h);
+        film.bias_halves.assign(4, Image(w, h));
+    }
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
     const std::array<float, kBatches> batch_inv = batch_weights(spp, unit, &film);
@@ -261,6 +286,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         FilmSample sum;
         std::array<Color, kBatches> batch{};
         PhotonBatchSums photons;
+        BiasHalves bias;
         uint64_t dropped = 0;
         const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
         const uint64_t jitter_key = pixel_key(seed, pixel);
@@ -278,11 +304,17 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
             const size_t b = size_t((s / unit) % kBatches);
             batch[b] += beauty;
-            if (c.photon_batches) photons.add(c.photon_delta, b);
+            if (photon_batches) {
+                photons.add(c.photon_delta, b);
+                bias.add(c.bias_half, b);
+            }
         }
         for (int b = 0; b < kBatches; ++b)
             film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];
-        film.map_variance.at(x, y) = photons.variance(batch_inv);
+        if (photon_batches) {
+            film.map_variance.at(x, y) = photons.variance(batch_inv);
+            for (size_t i = 0; i < 4; ++i) film.bias_halves[i].at(x, y) = bias.mean(i / 2, i % 2);
+        }
         film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
         for (int l = 0; layered && l < kLayerCount; ++l)
             film.layers[l].at(x, y) = sum.layers[l] * inv;

@@ -289,11 +289,13 @@ void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, C
     ++ts.lookups;
     if (policy_.kind() == MediumVertex::EndInMap) {
         ts.neighbors.clear();
-        VolumeMapEnd::BatchShares shares;
+        VolumeMapEnd::Parts parts;
         const Color map =
-            p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors, &shares);
+            p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors, &parts);
         *L += map;
-        for (size_t t = 0; t < shares.size(); ++t) ts.photon_delta[t] += (shares[t] - 1.0f) * map;
+        for (size_t t = 0; t < parts.shares.size(); ++t)
+            ts.photon_delta[t] += (parts.shares[t] - 1.0f) * map;
+        for (size_t h = 0; h < 2; ++h) ts.bias_half[h] += parts.bias[h] * map;
         ts.gathered += ts.neighbors.size();
     } else {
         *L += p.beta * policy_.split().grid->at(x, p.ray.d, phase);
@@ -348,6 +350,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
     }
     p.prev_p = camera_ray.o;
     ts.photon_delta.fill(Color(0.0f));
+    ts.bias_half.fill(Color(0.0f));
     if (ts.media.empty() || policy_.kind() != MediumVertex::EndInMap) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
 }
@@ -486,13 +489,13 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
     const PathTracer tracer(scene, settings.max_depth, policy);
     const bool batched = policy.kind() == MediumVertex::EndInMap && policy.end().batched();
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, batched,
         strata_unit(settings.spp), quiet, stats, [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
-            sample.photon_batches = batched;
             sample.photon_delta = ts.photon_delta;
+            sample.bias_half = ts.bias_half;
             return sample;
         });
 }

@@ -131,8 +131,10 @@ public:
         uint64_t gathered = 0;        ///< photons those lookups gathered from the kd-tree
         float pixel_estimate = 0.0f;  ///< AdjointSplit's Ĩ for the current camera sample
         int splits_left = 0;          ///< AdjointSplit's extra copies left to the camera sample
-        /// The camera sample's FilmSample::photon_delta so far (a batched VolumeMapEnd's).
+        /// The camera sample's FilmSample::photon_delta and bias_half so far (a batched
+        /// VolumeMapEnd's).
         std::array<Color, kBatches> photon_delta{};
+        std::array<Color, 2> bias_half{};
     };
     ThreadState make_state() const;
 

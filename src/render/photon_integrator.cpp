@@ -221,7 +221,7 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
-        map_step(settings.spp, settings.map_spp), quiet, stats,
+        /*photon_batches=*/false, map_step(settings.spp, settings.map_spp), quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));

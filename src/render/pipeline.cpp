@@ -58,6 +58,7 @@ std::vector<int64_t> film_bits(const Film& film) {
     for (const Image& layer : film.layers) put(layer);
     for (const Image& batch : film.batches) put(batch);
     put(film.map_variance);
+    for (const Image& half : film.bias_halves) put(half);
     return bits;
 }
 
@@ -75,6 +76,7 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     for (Image& layer : film->layers) get(layer);
     for (Image& batch : film->batches) get(batch);
     get(film->map_variance);
+    for (Image& half : film->bias_halves) get(half);
 }
 
 /// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
@@ -172,6 +174,7 @@ private:
     Ranks* const ranks_;
     const int n_ranks_, my_rank_;
     const bool root_, speak_, quiet_, progressive_, quiet_pass_;
+    const bool photon_batches_;  ///< RunSetup::photon_batches
     const Timer own_timer_;
     const Timer& timer_;
     const int base_;  ///< iterations of the checkpoint resumed from
@@ -202,6 +205,7 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       quiet_(o.quiet || !speak_),
       progressive_(setup.progressive),
       quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
+      photon_batches_(setup.photon_batches()),
       timer_(o.timer ? *o.timer : own_timer_),
       base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
       sun_shadows_((o.shared ? o.shared : &own_tables_)->sun) {}
@@ -342,11 +346,10 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                                                    : float(first_gather_->volume.k) *
                                                          std::pow(gather.volume.radius / r1, 3.0f);
         it->volume_k = k;
-        // One map for every sample: its photon batches give the film's batches its noise.
         end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
-                    desc_.volume.gather_tau, &end_buffers_, /*batched=*/!progressive_);
+                    desc_.volume.gather_tau, &end_buffers_, photon_batches_);
         report_.precompute_nodes += end->nodes();
-        if (end->wants_table()) {
+        if (end->wants_table() || end->batched()) {  // batched: RadiusBias's σ̄ too
             if (!sigma_table_) {
                 sigma_table_.emplace(scene_.media, 2.0f * r1);
                 report_.precompute_nodes += sigma_table_->nodes();
@@ -560,9 +563,9 @@ void RunLoop::finish_report() {
     estimate();
 }
 
-/// The error estimate from the film's batches (and map_variance), its variance and samples
-/// layers, and what it cannot see: a photon method's bias, and the photon gather's maps' noise
-/// when one set serves every sample.
+/// The error estimate from the film's batches (and its map variance and bias halves), its
+/// variance and samples layers, and what it cannot see: a photon method's bias beyond what the
+/// bias halves measure, and the photon gather's maps' noise when one set serves every sample.
 void RunLoop::estimate() {
     if (o_.silent) return;  // auto's pilot runs
     const Timer timer;
@@ -573,6 +576,10 @@ void RunLoop::estimate() {
     r.rel_mse = e.rel_mse.value;
     r.lo = e.rel_mse.lo;
     r.hi = e.rel_mse.hi;
+    r.bias_valid = e.bias_valid;
+    r.bias2 = e.bias2.value;
+    r.bias_lo = e.bias2.lo;
+    r.bias_hi = e.bias2.hi;
     r.batches = e.batches;
     r.batched_by = progressive_ ? "iterations" : "samples";
     r.tail_share = e.tail_share;
@@ -581,10 +588,11 @@ void RunLoop::estimate() {
     r.reached = r.target > 0.0 && meets_target(e, r.target);
     r.iterations = progressive_ ? int(counts_.iterations) : 1;  // ranks of a plain run add 1 each
     if (setup_.photon())
-        r.excludes = progressive_ || setup_.method == Method::MapEnd
-                         ? "the photon maps' bias (their gather radii blur the light)"
-                         : "the photon maps' own noise and their bias (one set of maps serves "
-                           "every sample; their gather radii blur the light)";
+        r.excludes = photon_batches_ ? "the map's bias beyond its radius's blur (the bias² above "
+                                       "holds that part only)"
+                     : progressive_  ? "the photon maps' bias (their gather radii blur the light)"
+                                     : "the photon maps' own noise and their bias (one set of maps "
+                                       "serves every sample; their gather radii blur the light)";
     out_.film.variance = std::move(e.variance);
     out_.film.samples = Image(report_.width, report_.height);
     std::fill(out_.film.samples.pixels.begin(), out_.film.samples.pixels.end(),

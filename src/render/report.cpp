@@ -31,6 +31,14 @@ std::string error_text(const ErrorReport& e) {
     std::string text = "error estimate: relMSE " + general(e.rel_mse) + " [" + general(e.lo) +
                        ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
                        " batches of " + e.batched_by + "\n";
+    if (e.bias_valid) {
+        text += "error estimate: of which the volume map's bias² " + general(e.bias2) + " [" +
+                general(e.bias_lo) + ", " + general(e.bias_hi) + "] (95%)\n";
+        if (e.bias_lo > 0.0)
+            text +=
+                "error estimate: the map's bias is measurable: a smaller volume.radius (or "
+                "more photons), progressive iterations or the path tracer lower it\n";
+    }
     if (!e.excludes.empty()) text += "error estimate: not in it: " + e.excludes + "\n";
     if (e.target > 0.0)
         text += "error estimate: target relMSE " + general(e.target) +
@@ -52,6 +60,9 @@ nlohmann::json error_json(const ErrorReport& e) {
             {"lo", e.lo},
             {"hi", e.hi},
             {"confidence", 0.95},
+            {"bias2", e.bias_valid
+                          ? nlohmann::json{{"value", e.bias2}, {"lo", e.bias_lo}, {"hi", e.bias_hi}}
+                          : nlohmann::json()},
             {"batches", e.batches},
             {"batched_by", e.batched_by},
             {"tail_share", e.tail_share},

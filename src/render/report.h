@@ -41,6 +41,8 @@ struct ErrorReport {
     bool valid = false;                        ///< false: too few batches (why says)
     std::string why;                           ///< when not valid, why
     double rel_mse = 0.0, lo = 0.0, hi = 0.0;  ///< the estimate and its 95% interval
+    bool bias_valid = false;                   ///< the volume map's bias² was estimated
+    double bias2 = 0.0, bias_lo = 0.0, bias_hi = 0.0;  ///< its part of rel_mse, interval
     int batches = 0;                           ///< batches holding samples
     std::string batched_by;                    ///< "samples" (of a pixel) or "iterations"
     double tail_share = 0.0;                   ///< share of it the top 0.1% of pixels carry

@@ -54,6 +54,9 @@ struct RunSetup {
 
     /// The photon integrator's methods (the others have no iterations and no layers).
     bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
+    /// Camera paths read one volume map in photon batches (VolumeMapEnd::batched): a plain run's
+    /// map ends every path, so its noise and bias are the film's to measure.
+    bool photon_batches() const { return method == Method::MapEnd && !progressive; }
     bool layered() const { return method == Method::Gather; }  ///< a film with layers
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
     void set_reason(std::string why);

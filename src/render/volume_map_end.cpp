@@ -302,7 +302,10 @@ void VolumeMapEnd::add_photon(const Photon& p, const Lattice& g, int k) {
             m.m0 += c;
             for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
             for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
-            if (!batch_power_.empty()) batch_power_[s][p.batch()] += average(c);
+            if (batch_power_.empty()) continue;
+            batch_power_[s].all[size_t(p.batch())] += average(c);
+            if (2.0f * glm::dot(d, d) < r2)
+                batch_power_[s].inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
         }
 }
 
@@ -406,24 +409,28 @@ Color VolumeMapEnd::lean(const KernelDensity::Corners& c, const Vec3& x, const C
 }
 
 Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase,
-                                NeighborList& scratch, BatchShares* shares) const {
-    if (shares) shares->fill(1.0f);
+                                NeighborList& scratch, Parts* parts) const {
+    if (parts) {
+        parts->shares.fill(1.0f);
+        parts->bias.fill(0.0f);
+    }
     // σ̄_s and the photon counts from the grid (its moments too where it holds them).
     Color density(0.0f);
     Moments m;
     KernelDensity::Corners c;
     if (!interpolate(x, &density, &m, &c)) return Color(0.0f);
-    if (!batched_) shares = nullptr;
+    if (!batched_) parts = nullptr;
     // LeanCorrection (header), where the grid holds moments; bounded by half the estimate.
     const auto corrected = [&](const Color& e, float rho) {
         if (!interpolates()) return e;
         return e - glm::clamp(lean(c, x, density, -dir, phase, rho), -0.5f * e, 0.5f * e);
     };
-    BatchSums parts{};
+    BatchSums sums;
     if (crowded(m.count)) {
-        const Color e = smaller_ball(x, dir, phase, m.count, scratch, shares ? &parts : nullptr);
-        if (shares) shares_of(parts, shares);
-        return corrected(e, radius_ * std::cbrt(k_ / m.count));
+        const float rho = radius_ * std::cbrt(k_ / m.count);
+        const Color e = smaller_ball(x, dir, phase, m.count, scratch, parts ? &sums : nullptr);
+        if (parts) parts_of(sums, x, rho, parts);
+        return corrected(e, rho);
     }
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
     Color collisions(0.0f);
@@ -431,36 +438,45 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
         collisions = glm::max(phase_sum(m, -dir, phase), Color(0.0f)) *
                      (map_.photon_power * kInvFourPi / volume);
-        if (shares) grid_shares(c, average(m.m0), shares);
+        if (parts && !batch_power_.empty()) parts_of(grid_sums(c), x, radius_, parts);
     } else {
-        collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch,
-                                        shares ? &parts : nullptr);
-        if (shares) shares_of(parts, shares);
+        collisions =
+            volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch, parts ? &sums : nullptr);
+        if (parts) parts_of(sums, x, radius_, parts);
     }
     return corrected(divide(collisions, density), radius_);
 }
 
-// PhotonBatches (header), from the photons a kd-tree lookup gathered.
-void VolumeMapEnd::shares_of(const BatchSums& parts, BatchShares* shares) {
+// PhotonBatches and RadiusBias (header).
+void VolumeMapEnd::parts_of(const BatchSums& sums, const Vec3& x, float rho, Parts* parts) const {
     float all = 0.0f;
-    for (float part : parts) all += part;
+    for (float part : sums.all) all += part;
     if (!(all > 0.0f)) return;
-    for (size_t b = 0; b < parts.size(); ++b)
-        (*shares)[b] = float(Photon::kBatches) * parts[b] / all;
+    constexpr size_t kHalf = Photon::kBatches / 2;
+    std::array<float, 2> half{};
+    for (size_t b = 0; b < sums.all.size(); ++b) {
+        parts->shares[b] = float(Photon::kBatches) * sums.all[b] / all;
+        half[b / kHalf] += sums.all[b];
+    }
+    // 2 (E_h(ρ) − E_h(ρ/√2)) over E, with E_h(ρ) = E × 2 P_h / P.
+    const float inner = rho * float(M_SQRT1_2);
+    const float sigma = table_ ? average(table_->cube_average(x, equal_volume_edge(inner))) : 0.0f;
+    const float ratio =
+        sigma > 0.0f ? average(table_->cube_average(x, equal_volume_edge(rho))) / sigma : 1.0f;
+    const float kappa = 2.0f * float(M_SQRT2) * ratio;
+    for (size_t h = 0; h < 2; ++h) parts->bias[h] = 4.0f * (half[h] - kappa * sums.inner[h]) / all;
 }
 
-// PhotonBatches (header), from the grid: the batch's power interpolated as the moments are
-// (`all`: their m0's channel average, the sum over batches).
-void VolumeMapEnd::grid_shares(const KernelDensity::Corners& c, float all,
-                               BatchShares* shares) const {
-    if (batch_power_.empty() || !(all > 0.0f)) return;
-    BatchShares part{};
+BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {
+    BatchSums sums;
     for (int n = 0; n < 8; ++n) {
         const int32_t s = slot_[c.node[n]];
         if (s < 0) continue;
-        for (size_t b = 0; b < part.size(); ++b) part[b] += c.weight[n] * batch_power_[s][b];
+        const float w = c.weight[n];
+        for (size_t b = 0; b < sums.all.size(); ++b) sums.all[b] += w * batch_power_[s].all[b];
+        for (size_t h = 0; h < 2; ++h) sums.inner[h] += w * batch_power_[s].inner[h];
     }
-    for (size_t b = 0; b < part.size(); ++b) (*shares)[b] = float(Photon::kBatches) * part[b] / all;
+    return sums;
 }
 
 // AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's

@@ -117,7 +117,8 @@ public:
     VolumeMapEnd& operator=(const VolumeMapEnd&) = delete;
     /// Some grid point's ball holds more than 2k photons: lookups there want a SigmaTable.
     bool wants_table() const { return crowded_anywhere_; }
-    /// σ_s over boxes for AdaptiveRadius (may be null: one radius everywhere); must outlive this.
+    /// σ_s over boxes for AdaptiveRadius (may be null: one radius everywhere) and RadiusBias;
+    /// must outlive this.
     void set_table(const SigmaTable* table) { table_ = table; }
     int depth() const { return depth_; }  ///< the first vertex paths may end at
     /// A medium vertex at x, the path's `vertex`-th (1-based; diffuse surface vertices count),
@@ -133,10 +134,14 @@ public:
     /// ∫ f(ω, ω') L_i(x, ω') dω' towards −dir (dir: the path's travel direction into x) for the
     /// light that arrived after at least one interaction, blurred over the ball of radius r.
     /// `scratch`: the calling thread's.
-    /// `shares` (may be null; a batched map's only): PhotonBatches' factor of every batch.
-    using BatchShares = std::array<float, Photon::kBatches>;
+    /// What a batched map's lookup says beside its estimate E (PhotonBatches, RadiusBias).
+    struct Parts {
+        std::array<float, Photon::kBatches> shares;  ///< E from batch t alone: E × shares[t]
+        std::array<float, 2> bias;  ///< each photon half's estimate of E's bias, over E
+    };
+    /// `parts` (may be null): a batched map's parts (an unbatched map's: shares 1, bias 0).
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase, NeighborList& scratch,
-                      BatchShares* shares = nullptr) const;
+                      Parts* parts = nullptr) const;
     bool batched() const { return batched_; }
 
     // PhotonBatches. Every photon is in one of Photon::kBatches batches of whole paths, so the
@@ -146,6 +151,15 @@ public:
     // lookup's part of the power, the photons' directions taken as the whole's. From the batches'
     // estimates a film tells the variance one map read by every sample adds, which its batches of
     // samples cannot see (render/film.h, map_variance).
+
+    // RadiusBias. The ball's blur errs by about c ρ² where the light is smooth, so an estimate
+    // over the ball of radius ρ/√2 errs by half that, and 2 (E(ρ) − E(ρ/√2)) estimates E's bias
+    // (Richardson). Each photon half (batches 0-3, 4-7) makes its own from its photons alone,
+    // E_h(ρ) = E × 2 P_h / P and E_h(ρ/√2) = E_h(ρ) × (2^{3/2} P_h' / P_h) (σ̄(ρ) / σ̄(ρ/√2)),
+    // P the lookup's sum (as the shares weigh it), P_h its half's, P_h' its half's within ρ/√2,
+    // σ̄ from the SigmaTable's cubes (1 without a table): two independent estimates of one bias,
+    // whose product a film averages into bias² (render/film.h, BiasHalves). What it leaves out:
+    // blur on other scales than ρ (the grid's cells, ≈ r / 2), and the moments' cut series.
 
     /// Lookups interpolate the photons' directional moments (see Moments below); else they
     /// search the kd-tree, and the grid (when built) gives only the photon counts.
@@ -193,10 +207,11 @@ public:
     static constexpr float kLeanMinOffset = 0.02f;
 
 private:
-    /// PhotonBatches' shares from each batch's part of a kd-tree lookup's sum.
-    static void shares_of(const BatchSums& parts, BatchShares* shares);
-    /// PhotonBatches' shares from the grid at corners c (`all`: the lookup's power).
-    void grid_shares(const KernelDensity::Corners& c, float all, BatchShares* shares) const;
+    /// PhotonBatches' and RadiusBias's parts of a lookup at x over radius rho from its batches'
+    /// sums.
+    void parts_of(const BatchSums& sums, const Vec3& x, float rho, Parts* parts) const;
+    /// The batches' sums at x from the grid's corners c, interpolated as the moments are.
+    BatchSums grid_sums(const KernelDensity::Corners& c) const;
     /// n photons within r call for AdaptiveRadius.
     bool crowded(float n) const { return table_ && k_ > 0.0f && n > 2.0f * k_; }
     Color smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
@@ -216,7 +231,7 @@ private:
     };
 
     /// Per grid point: each photon batch's power, the channels' average (PhotonBatches).
-    using BatchPower = std::array<float, Photon::kBatches>;
+    using BatchPower = BatchSums;
 
 public:
     /// The grids' memory, kept between progressive iterations: a new map's vectors reuse the

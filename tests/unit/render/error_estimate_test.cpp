@@ -252,5 +252,49 @@ TEST(ErrorEstimate, OneMapsNoiseSharedByEverySampleIsInTheEstimate) {
     }
 }
 
+// The map's bias from Film::bias_halves (render/film.h, BiasHalves): four estimates per pixel of
+// one bias b (a smooth ramp, 0 to 0.05 across the image), each with noise of its own (deviation
+// 0.05). The bias² part must be mean b² / (y² + floor) within 5% (median of 20 films), its
+// interval must hold that in 18 of 20, and with b = 0 the interval must hold 0 in 18 of 20.
+Film biased_film(const Image& y, float scale, uint64_t seed) {
+    Film film = noisy_film(y, 16, seed);
+    film.bias_halves.assign(4, Image(kW, kH));
+    for (size_t p = 0; p < y.pixels.size(); ++p) {
+        Rng rng(seed, p, 1u << 21);
+        const float b = scale * 0.05f * float(p % kW) / kW;
+        for (Image& half : film.bias_halves)
+            for (int c = 0; c < 3; ++c) half.pixels[p][c] = b + 0.05f * normal(rng);
+    }
+    return film;
+}
+
+TEST(ErrorEstimate, TheBiasPartIsTheSquareOfTheBiasTheHalvesShare) {
+    const Image y = truth();
+    double expected = 0.0;
+    for (size_t p = 0; p < y.pixels.size(); ++p)
+        for (int c = 0; c < 3; ++c) {
+            const double b = 0.05 * double(p % kW) / kW;
+            expected += relative_squared_error(b * b, y.pixels[p][c]);
+        }
+    expected /= 3.0 * double(y.pixels.size());
+    int held = 0, zero_held = 0;
+    std::vector<double> ratios;
+    for (int seed = 1; seed <= 20; ++seed) {
+        const ErrorEstimate e = estimate_error(biased_film(y, 1.0f, uint64_t(seed)));
+        ASSERT_TRUE(e.bias_valid);
+        ratios.push_back(e.bias2.value / expected);
+        held += e.bias2.lo <= expected && expected <= e.bias2.hi;
+        zero_held += estimate_error(biased_film(y, 0.0f, uint64_t(seed))).bias2.lo == 0.0;
+    }
+    std::sort(ratios.begin(), ratios.end());
+    std::printf(
+        "bias²: median estimate / expected %.3f, interval held it in %d of 20, held 0 "
+        "without bias in %d of 20\n",
+        ratios[10], held, zero_held);
+    EXPECT_NEAR(ratios[10], 1.0, 0.05);
+    EXPECT_GE(held, 18);
+    EXPECT_GE(zero_held, 18);
+}
+
 }  // namespace
 }  // namespace fogmap
