@@ -12,8 +12,9 @@ BeamTree::BeamTree(const PhotonMap& map, int k, float r_max) {
     const size_t n = photons.size();
     records_.resize(n);
     for (size_t i = 0; i < n; ++i)
-        records_[i] = Record{photons[i].position(), 0.0f, photons[i].direction(), 0.0f,
-                             photons[i].power()};
+        records_[i] = Record{photons[i].position(),  0.0f,
+                             photons[i].direction(), 0.0f,
+                             photons[i].power(),     uint32_t(photons[i].batch())};
     if (n == 0) return;
     bvh_.build(records_, [](const Record& r) { return r.position; });
 

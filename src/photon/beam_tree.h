@@ -7,7 +7,7 @@
 // integrated along the ray, K(d) = 3 sqrt(r² − d²) / (2π r³), so the beam estimate is the line
 // integral of the spherical estimate Σ p ΔΦ / ((4/3) π r³) (with the transmittance taken at each
 // photon's closest point) and the two agree in the limit. The photons are copied out decoded,
-// in leaf order (40 bytes each), so a query reads them sequentially and decodes nothing.
+// in leaf order (48 bytes each), so a query reads them sequentially and decodes nothing.
 // Immutable after construction; queries are thread-safe.
 
 #include "photon/bvh.h"
@@ -32,6 +32,7 @@ public:
         Vec3 direction;  ///< travel direction
         float norm;      ///< 3 / (2π r³): K(d) = norm · sqrt(r² − d²)
         Color power;     ///< relative power, as stored (× the map's photon_power: watts)
+        uint32_t batch;  ///< Photon::batch
     };
 
     /// Calls f(const Record&, float t, float kernel) for each photon whose sphere meets the ray

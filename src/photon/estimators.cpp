@@ -39,7 +39,8 @@ void find(const PhotonMap& map, const Vec3& x, int k, float r_max, NeighborList&
 }  // namespace
 
 Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
-                         float cone_kf, uint8_t skip_flags, NeighborList& scratch) {
+                         float cone_kf, uint8_t skip_flags, NeighborList& scratch,
+                         BatchSums* batches) {
     find(map, x, k, r_max, scratch);
     if (scratch.empty()) return Color(0.0f);
     const float r2 = estimate_radius2(scratch, k, r_max);
@@ -55,6 +56,7 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
         float w = 1.0f;
         if (cone_kf > 0.0f) w = 1.0f - std::sqrt(scratch[i].dist2) / (cone_kf * r);
         sum += w * p.power();
+        if (batches) batches->add(p, w * p.power(), scratch[i].dist2, r2);
     }
     const float norm = cone_kf > 0.0f ? 1.0f - 2.0f / (3.0f * cone_kf) : 1.0f;
     return sum * (map.photon_power / (kPi * r2 * norm));
@@ -88,10 +90,7 @@ Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, co
         const Photon& p = photons[scratch[i].index];
         const Color c = phase.eval(glm::dot(p.direction(), wo)) * p.power();
         sum += c;
-        if (!batches) continue;
-        batches->all[size_t(p.batch())] += average(c);
-        if (2.0f * scratch[i].dist2 < r2)
-            batches->inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
+        if (batches) batches->add(p, c, scratch[i].dist2, r2);
     }
     const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
     return sum * (map.photon_power / volume);

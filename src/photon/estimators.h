@@ -15,11 +15,41 @@
 
 namespace fogmap {
 
+/// What an estimate's photon batches (Photon::batch) gave of its sum, the channels' averages in
+/// any common unit, added to what is there: each batch's part, and each half's (batches 0-3,
+/// 4-7) over the photons within r/√2 (render/volume_map_end.h, PhotonBatches and RadiusBias).
+struct BatchSums {
+    std::array<float, Photon::kBatches> all{};
+    std::array<float, 2> inner{};
+    /// A photon's part c at squared distance d2 of a lookup of squared radius r2.
+    void add(const Photon& p, const Color& c, float d2, float r2) {
+        all[size_t(p.batch())] += average(c);
+        if (2.0f * d2 < r2) inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
+    }
+    /// The sum over batches.
+    float total() const {
+        float sum = 0.0f;
+        for (float part : all) sum += part;
+        return sum;
+    }
+    /// Each batch's share, kBatches × its part of the sum (1 each where the sum is 0): the
+    /// estimate from that batch's photons alone is the whole times its share.
+    std::array<float, Photon::kBatches> shares() const {
+        std::array<float, Photon::kBatches> out;
+        const float sum = total();
+        for (size_t b = 0; b < out.size(); ++b)
+            out[b] = sum > 0.0f ? float(Photon::kBatches) * all[b] / sum : 1.0f;
+        return out;
+    }
+};
+
 /// Irradiance (W/m²) at surface point x with unit normal n from photons that arrived on the side
 /// n faces. Photons whose flags intersect skip_flags are left out (the global map shown directly
-/// skips caustic photons, which the caustic map shows). cone_kf = 0: box filter.
+/// skips caustic photons, which the caustic map shows). cone_kf = 0: box filter. `batches` (may
+/// be null): what each photon batch gave.
 Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int k, float r_max,
-                         float cone_kf, uint8_t skip_flags, NeighborList& scratch);
+                         float cone_kf, uint8_t skip_flags, NeighborList& scratch,
+                         BatchSums* batches = nullptr);
 
 /// The median, over `points` (not empty), of the distance from each to its k-th nearest photon of
 /// `map`, r_max for a point with fewer than k within r_max: the radius a map's gathers share
@@ -28,14 +58,8 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
                           float r_max);
 
 /// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
-/// function at x applied to each photon's travel direction. `batches` (may be null): each
-/// photon batch's part of the sum (Photon::batch), and each half's (batches 0-3, 4-7) of the sum
-/// over the photons within r/√2 (render/volume_map_end.h, RadiusBias): the channels' averages,
-/// in any common unit, added to what *batches holds.
-struct BatchSums {
-    std::array<float, Photon::kBatches> all{};
-    std::array<float, 2> inner{};
-};
+/// function at x applied to each photon's travel direction. `batches` (may be null): what each
+/// photon batch gave.
 Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
                          int k, float r_max, NeighborList& scratch, BatchSums* batches = nullptr);
 

@@ -41,6 +41,11 @@ static_assert(kLayerNames.size() == size_t(kLayerCount),
 /// at any thread or rank count.
 inline constexpr int kBatches = 8;
 
+/// What a film keeps of the photon batches its samples read (FilmSample::photon_delta and
+/// bias_half): nothing, the map's noise (Film::map_variance), or its noise and bias (and
+/// Film::bias_halves).
+enum class PhotonParts { None, Noise, NoiseAndBias };
+
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {
     std::array<Color, kLayerCount> layers{};
@@ -263,21 +268,21 @@ struct BiasHalves {
 /// (counted) and the film holds the mean over spp, and the mean over each batch's samples (a
 /// dropped sample counts as 0 in both). state = make_state() per tile; state.rays,
 /// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
-/// *stats (may be null). `photon_batches`: samples read a photon map in batches (their
-/// photon_delta and bias_half are set), which give film.map_variance and film.bias_halves.
+/// *stats (may be null). `photon_parts`: what the samples' photon_delta and bias_half give
+/// (film.map_variance, film.bias_halves).
 /// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
 /// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
 /// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
-                 bool photon_batches, int unit, bool quiet, RenderStats* stats,
+                 PhotonParts photon_parts, int unit, bool quiet, RenderStats* stats,
                  MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
     Film film(w, h, layered);
-    if (photon_batches) {
-        film.map_variance = Image(w, h);
-        film.bias_halves.assign(4, Image(w, h));
-    }
+    const bool photon_batches = photon_parts != PhotonParts::None,
+               bias = photon_parts == PhotonParts::NoiseAndBias;
+    if (photon_batches) film.map_variance = Image(w, h);
+    if (bias) film.bias_halves.assign(4, Image(w, h));
     std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
     const float inv = 1.0f / static_cast<float>(spp);
     const std::array<float, kBatches> batch_inv = batch_weights(spp, unit, &film);
@@ -286,7 +291,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         FilmSample sum;
         std::array<Color, kBatches> batch{};
         PhotonBatchSums photons;
-        BiasHalves bias;
+        BiasHalves halves;
         uint64_t dropped = 0;
         const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
         const uint64_t jitter_key = pixel_key(seed, pixel);
@@ -304,17 +309,14 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
             const size_t b = size_t((s / unit) % kBatches);
             batch[b] += beauty;
-            if (photon_batches) {
-                photons.add(c.photon_delta, b);
-                bias.add(c.bias_half, b);
-            }
+            if (photon_batches) photons.add(c.photon_delta, b);
+            if (bias) halves.add(c.bias_half, b);
         }
         for (int b = 0; b < kBatches; ++b)
             film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];
-        if (photon_batches) {
-            film.map_variance.at(x, y) = photons.variance(batch_inv);
-            for (size_t i = 0; i < 4; ++i) film.bias_halves[i].at(x, y) = bias.mean(i / 2, i % 2);
-        }
+        if (photon_batches) film.map_variance.at(x, y) = photons.variance(batch_inv);
+        for (size_t i = 0; bias && i < 4; ++i)
+            film.bias_halves[i].at(x, y) = halves.mean(i / 2, i % 2);
         film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
         for (int l = 0; layered && l < kLayerCount; ++l)
             film.layers[l].at(x, y) = sum.layers[l] * inv;

@@ -487,9 +487,11 @@ static_assert(Photon::kBatches == kBatches, "FilmSample::photon_delta: one per p
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const PathPolicy& policy, TileShare tiles) {
     const PathTracer tracer(scene, settings.max_depth, policy);
-    const bool batched = policy.kind() == MediumVertex::EndInMap && policy.end().batched();
+    const PhotonParts parts = policy.kind() == MediumVertex::EndInMap && policy.end().batched()
+                                  ? PhotonParts::NoiseAndBias
+                                  : PhotonParts::None;
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, batched,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, parts,
         strata_unit(settings.spp), quiet, stats, [&] { return tracer.make_state(); },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;

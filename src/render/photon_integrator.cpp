@@ -51,11 +51,12 @@ struct PhotonIntegrator::Irradiance {
 
 PhotonIntegrator::PhotonIntegrator(const Scene& scene, const PhotonMaps& maps,
                                    const GatherParams& gather, const MarchSettings& march,
-                                   int max_depth)
+                                   int max_depth, bool photon_batches)
     : scene_(scene),
       maps_(maps),
       gather_(gather),
       max_depth_(max_depth),
+      photon_batches_(photon_batches),
       beam_(build_for<BeamTree>(VolumeEstimator::Beam, maps, gather, &precompute_s_)),
       beams_(build_for<PhotonBeams>(VolumeEstimator::PhotonBeams, maps, gather, &precompute_s_)),
       volume_(scene, march, gather, maps.volume ? &*maps.volume : nullptr, beam_.get(),
@@ -140,6 +141,16 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
                                       float map_weight) const {
     const bool maps = map_weight > 0.0f;
     FilmSample out;
+    // PhotonBatches (render/volume_map_end.h): a map term's part from each batch alone.
+    BatchSums parts;
+    BatchSums* const batches = photon_batches_ ? &parts : nullptr;
+    const auto add = [&](Layer layer, const Color& term) {
+        out[layer] += term;
+        if (!batches) return;
+        const std::array<float, Photon::kBatches> shares = parts.shares();
+        for (size_t b = 0; b < shares.size(); ++b) out.photon_delta[b] += (shares[b] - 1.0f) * term;
+        parts = BatchSums{};
+    };
     Ray ray = camera_ray;
     Color beta(1.0f);
     int depth = 0;
@@ -156,8 +167,8 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             out[Layer::Emission] += ts.emitted;
             out[Layer::VolumeSingle] += volume_.single_scattering(ray, beta, rng, ts);
             if (maps)
-                out[Layer::VolumeMultiple] +=
-                    map_weight * volume_.multiple_scattering(ray, beta, rng, ts);
+                add(Layer::VolumeMultiple,
+                    map_weight * volume_.multiple_scattering(ray, beta, rng, ts, batches));
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }
@@ -185,19 +196,21 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             beta * direct_diffuse(scene_, ts.media, hit->p, n, mat.albedo, rng, &ts.rays);
         if (!maps) break;
         if (maps_.caustic)
-            out[Layer::Caustic] +=
+            add(Layer::Caustic,
                 map_weight * beta * mat.albedo * kInvPi *
-                surface_irradiance(*maps_.caustic, hit->p, n, estimator_k(gather_.caustic),
-                                   gather_.caustic.radius, gather_.cone_filter, 0, ts.neighbors);
+                    surface_irradiance(*maps_.caustic, hit->p, n, estimator_k(gather_.caustic),
+                                       gather_.caustic.radius, gather_.cone_filter, 0, ts.neighbors,
+                                       batches));
         if (maps_.global) {
             if (gather_.final_gather)
                 out[Layer::Indirect] +=
                     map_weight * beta * mat.albedo * final_gather(hit->p, n, rng, ts);
             else
-                out[Layer::Indirect] +=
+                add(Layer::Indirect,
                     map_weight * beta * mat.albedo * kInvPi *
-                    surface_irradiance(*maps_.global, hit->p, n, estimator_k(gather_.global),
-                                       gather_.global.radius, 0.0f, Photon::kCaustic, ts.neighbors);
+                        surface_irradiance(*maps_.global, hit->p, n, estimator_k(gather_.global),
+                                           gather_.global.radius, 0.0f, Photon::kCaustic,
+                                           ts.neighbors, batches));
         }
         break;
     }
@@ -216,12 +229,14 @@ float map_weight(const PixelSample& ps, int map_spp) {
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s, TileShare tiles) {
-    const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth);
+                   RenderStats* stats, double* precompute_s, TileShare tiles, bool photon_batches) {
+    const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth,
+                                      photon_batches);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
-        /*photon_batches=*/false, map_step(settings.spp, settings.map_spp), quiet, stats,
+        photon_batches ? PhotonParts::Noise : PhotonParts::None,
+        map_step(settings.spp, settings.map_spp), quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));

@@ -23,8 +23,16 @@ public:
     /// Gathers from `maps` as `gather` says, marching camera rays as `march` says, following at
     /// most max_depth specular bounces. Builds the beam hierarchy for the beam estimate and
     /// precomputes irradiance at every fourth global photon when final gathering is on.
+    /// `photon_batches`: samples say what each photon batch gave (FilmSample::photon_delta);
+    /// only where batches_supported.
     PhotonIntegrator(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
-                     const MarchSettings& march, int max_depth);
+                     const MarchSettings& march, int max_depth, bool photon_batches = false);
+
+    /// Whether every map lookup of `gather`'s settings can say what each photon batch gave: not
+    /// photon beams (they have no batches) nor final gathering (its irradiance is precomputed).
+    static bool batches_supported(VolumeEstimator estimator, bool final_gather) {
+        return estimator != VolumeEstimator::PhotonBeams && !final_gather;
+    }
     ~PhotonIntegrator();
 
     /// Per-thread state: the volume gather's (samplers, scratch, ray count) and the cap count.
@@ -53,6 +61,7 @@ private:
     const PhotonMaps& maps_;
     GatherParams gather_;
     int max_depth_;
+    bool photon_batches_;
     double precompute_s_ = 0.0;  ///< before beam_, whose construction adds to it
     std::unique_ptr<Irradiance> irradiance_;
     std::unique_ptr<BeamTree> beam_;
@@ -73,9 +82,11 @@ int map_step(int spp, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
 /// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).
-/// *precompute_s (may be null) gets the integrator's precomputation time.
+/// *precompute_s (may be null) gets the integrator's precomputation time. `photon_batches`: as
+/// PhotonIntegrator's, the film then keeps the maps' noise (PhotonParts::Noise).
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s, TileShare tiles = {});
+                   RenderStats* stats, double* precompute_s, TileShare tiles = {},
+                   bool photon_batches = false);
 
 }  // namespace fogmap

@@ -165,6 +165,7 @@ private:
     bool reduce();
     void finish_report();
     void estimate();
+    std::string excluded() const;
     RenderSettings iteration_settings(int i) const;
 
     const RunSetup& setup_;
@@ -385,7 +386,7 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
         default: {
             double precompute_s = 0.0;
             Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
-                                      stats, &precompute_s, setup_.tiles);
+                                      stats, &precompute_s, setup_.tiles, photon_batches_);
             if (precompute_s > 0.0) add_phase(&report_, "precompute", precompute_s);
             return film;
         }
@@ -587,17 +588,23 @@ void RunLoop::estimate() {
     r.target = desc_.progressive.target_relmse;
     r.reached = r.target > 0.0 && meets_target(e, r.target);
     r.iterations = progressive_ ? int(counts_.iterations) : 1;  // ranks of a plain run add 1 each
-    if (setup_.photon())
-        r.excludes = photon_batches_ ? "the map's bias beyond its radius's blur (the bias² above "
-                                       "holds that part only)"
-                     : progressive_  ? "the photon maps' bias (their gather radii blur the light)"
-                                     : "the photon maps' own noise and their bias (one set of maps "
-                                       "serves every sample; their gather radii blur the light)";
+    if (setup_.photon()) r.excludes = excluded();
     out_.film.variance = std::move(e.variance);
     out_.film.samples = Image(report_.width, report_.height);
     std::fill(out_.film.samples.pixels.begin(), out_.film.samples.pixels.end(),
               Color(float(report_.spp)));
     add_phase(&report_, "estimate", timer.seconds());
+}
+
+/// What the estimate of a photon method's run cannot see (the report's "not in it").
+std::string RunLoop::excluded() const {
+    if (setup_.map_bias())
+        return "the map's bias beyond its radius's blur (the bias² above holds that part only)";
+    if (photon_batches_ || progressive_)
+        return "the photon maps' bias (their gather radii blur the light)";
+    return "the photon maps' own noise and their bias (one set of maps serves every sample; their "
+           "gather radii blur the light; photon beams and final gathering are not read in "
+           "batches)";
 }
 
 PipelineResult RunLoop::run() {

@@ -3,6 +3,7 @@
 #include "core/hash.h"
 #include "core/world_range.h"
 #include "media/phase.h"
+#include "render/photon_integrator.h"
 #include "render/sun_shadows.h"
 #include "render/volume_map_end.h"
 #include "scene/scene_desc_json.h"
@@ -401,6 +402,13 @@ const char* describe(Method m) {
             return "photon mapping";
     }
     return "the path tracer";
+}
+
+bool RunSetup::photon_batches() const {
+    if (progressive) return false;  // each iteration's maps are its own: its batches hold them
+    return method == Method::MapEnd ||
+           (method == Method::Gather &&
+            PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));
 }
 
 void RunSetup::set_reason(std::string why) {

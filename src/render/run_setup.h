@@ -54,9 +54,13 @@ struct RunSetup {
 
     /// The photon integrator's methods (the others have no iterations and no layers).
     bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
-    /// Camera paths read one volume map in photon batches (VolumeMapEnd::batched): a plain run's
-    /// map ends every path, so its noise and bias are the film's to measure.
-    bool photon_batches() const { return method == Method::MapEnd && !progressive; }
+    /// A plain run's photon maps serve every sample, so samples read them in photon batches and
+    /// the film measures their noise (and, where camera paths end in the volume map, its bias):
+    /// render/volume_map_end.h, PhotonBatches; every lookup of the photon gather must be able to
+    /// (PhotonIntegrator::batches_supported).
+    bool photon_batches() const;
+    /// And the volume map's bias from its radius is measured (VolumeMapEnd, RadiusBias).
+    bool map_bias() const { return photon_batches() && method == Method::MapEnd; }
     bool layered() const { return method == Method::Gather; }  ///< a film with layers
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
     void set_reason(std::string why);

@@ -137,11 +137,12 @@ Color VolumeGather::single_scattering(const Ray& ray, const Color& beta, Rng& rn
     return sum;
 }
 
-Color VolumeGather::multiple_scattering(const Ray& ray, const Color& beta, Rng& rng,
-                                        State& st) const {
+Color VolumeGather::multiple_scattering(const Ray& ray, const Color& beta, Rng& rng, State& st,
+                                        BatchSums* batches) const {
     if (st.steps.empty() || !map_) return Color(0.0f);
     if (beams_) return beta * photon_beam_estimate(ray, st);
-    return beam_ ? beta * beam_estimate(ray, st) : sphere_estimate(ray.d, rng, st);
+    return beam_ ? beta * beam_estimate(ray, st, batches)
+                 : sphere_estimate(ray.d, rng, st, batches);
 }
 
 // The sphere estimate (smooth along the ray): m = lookups_per_ray volume-map lookups at steps
@@ -149,14 +150,21 @@ Color VolumeGather::multiple_scattering(const Ray& ray, const Color& beta, Rng& 
 // the transmittance-weighted step length, not σ_s(x_k): the estimate is a blurred density,
 // nonzero where σ_s(x_k) is small, and weighting by σ_s(x_k) made such steps rare and their picks
 // bright. Each pick weighs Q / (m q_k), so the expectation is the full march sum.
-Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st) const {
+Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st,
+                                    BatchSums* batches) const {
     Color sum(0.0f);
     auto gather = [&](const MarchedStep& s, float factor) {
         ++st.lookups;
-        sum += factor * s.weight *
-               volume_inscattered(*map_, s.x, -dir, PhaseMix(st.media, s.x), k_, radius_,
-                                  st.neighbors);
+        BatchSums parts;
+        const Color c = factor * s.weight *
+                        volume_inscattered(*map_, s.x, -dir, PhaseMix(st.media, s.x), k_, radius_,
+                                           st.neighbors, batches ? &parts : nullptr);
+        sum += c;
         st.gathered += st.neighbors.size();
+        if (!batches) return;  // the lookup's part per batch, in the sum's unit
+        const std::array<float, Photon::kBatches> shares = parts.shares();
+        for (size_t b = 0; b < shares.size(); ++b)
+            batches->all[b] += average(c) * shares[b] / float(Photon::kBatches);
     };
     const std::vector<MarchedStep>& steps = st.steps;
     const size_t m = static_cast<size_t>(lookups_per_ray_);
@@ -183,7 +191,7 @@ Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st) const 
 
 // Σ_p p(θ_p) ΔΦ_p T(0, t_p) K(d_p) over the photons whose spheres the marched segment crosses,
 // T from the march's own optical-depth table (the heterogeneous medium itself).
-Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
+Color VolumeGather::beam_estimate(const Ray& ray, State& st, BatchSums* batches) const {
     const std::vector<MarchedStep>& depth = st.steps;
     const float t0 = depth.front().t0, t1 = depth.back().t1;
     const bool one_medium = st.media.size() == 1;
@@ -198,7 +206,9 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st) const {
         const float phase =
             one_medium ? single.eval(glm::dot(p.direction, -ray.d))
                        : PhaseMix(st.media, p.position).eval(glm::dot(p.direction, -ray.d));
-        sum += phase * kernel * exp_neg(tau) * p.power;
+        const Color c = phase * kernel * exp_neg(tau) * p.power;
+        sum += c;
+        if (batches) batches->all[p.batch] += average(c);
     });
     return sum * map_->photon_power;
 }

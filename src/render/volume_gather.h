@@ -13,6 +13,7 @@
 #include "core/rng.h"
 #include "media/ray_march.h"
 #include "photon/beam_tree.h"
+#include "photon/estimators.h"
 #include "photon/kd_tree.h"
 #include "photon/photon_beams.h"
 #include "photon/photon_pass.h"
@@ -64,14 +65,16 @@ public:
     Color single_scattering(const Ray& ray, const Color& beta, Rng& rng, State& st) const;
 
     /// Multiple scattering over the marched segment (after march()) from the volume map: the
-    /// beam or the sphere estimate, already weighted by the throughput.
-    Color multiple_scattering(const Ray& ray, const Color& beta, Rng& rng, State& st) const;
+    /// beam or the sphere estimate, already weighted by the throughput. `batches` (may be null;
+    /// not for photon beams, which have no batches): what each photon batch gave of it.
+    Color multiple_scattering(const Ray& ray, const Color& beta, Rng& rng, State& st,
+                              BatchSums* batches = nullptr) const;
 
 private:
     Color scatter_light(const Light& light, const Vec3& x, const Vec3& dir, Rng& rng,
                         State& st) const;
-    Color sphere_estimate(const Vec3& dir, Rng& rng, State& st) const;
-    Color beam_estimate(const Ray& ray, State& st) const;
+    Color sphere_estimate(const Vec3& dir, Rng& rng, State& st, BatchSums* batches) const;
+    Color beam_estimate(const Ray& ray, State& st, BatchSums* batches) const;
     Color photon_beam_estimate(const Ray& ray, State& st) const;
 
     const Scene& scene_;

@@ -302,10 +302,7 @@ void VolumeMapEnd::add_photon(const Photon& p, const Lattice& g, int k) {
             m.m0 += c;
             for (int a = 0; a < 3; ++a) m.m1[a] += m1[a];
             for (int a = 0; a < 6; ++a) m.m2[a] += m2[a];
-            if (batch_power_.empty()) continue;
-            batch_power_[s].all[size_t(p.batch())] += average(c);
-            if (2.0f * glm::dot(d, d) < r2)
-                batch_power_[s].inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
+            if (!batch_power_.empty()) batch_power_[s].add(p, c, glm::dot(d, d), r2);
         }
 }
 
@@ -449,15 +446,12 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
 
 // PhotonBatches and RadiusBias (header).
 void VolumeMapEnd::parts_of(const BatchSums& sums, const Vec3& x, float rho, Parts* parts) const {
-    float all = 0.0f;
-    for (float part : sums.all) all += part;
+    const float all = sums.total();
     if (!(all > 0.0f)) return;
+    parts->shares = sums.shares();
     constexpr size_t kHalf = Photon::kBatches / 2;
     std::array<float, 2> half{};
-    for (size_t b = 0; b < sums.all.size(); ++b) {
-        parts->shares[b] = float(Photon::kBatches) * sums.all[b] / all;
-        half[b / kHalf] += sums.all[b];
-    }
+    for (size_t b = 0; b < sums.all.size(); ++b) half[b / kHalf] += sums.all[b];
     // 2 (E_h(ρ) − E_h(ρ/√2)) over E, with E_h(ρ) = E × 2 P_h / P.
     const float inner = rho * float(M_SQRT1_2);
     const float sigma = table_ ? average(table_->cube_average(x, equal_volume_edge(inner))) : 0.0f;

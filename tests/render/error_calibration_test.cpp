@@ -201,10 +201,13 @@ TEST(ErrorCalibrationHeavy, FourScenesTwoIntegratorsThreeSampleCounts) {
     }
     write_study(rows);
     for (const Row& r : rows) {
-        if (r.integrator != "path") continue;  // the default's bias is not in its estimate yet
-        EXPECT_GE(r.covered, 18) << r.scene << " " << r.spp;
-        EXPECT_GE(r.median_ratio, 0.8) << r.scene << " " << r.spp;
-        EXPECT_LE(r.median_ratio, 1.25) << r.scene << " " << r.spp;
+        const std::string what = r.scene + " " + r.integrator + " " + std::to_string(r.spp);
+        EXPECT_GE(r.covered, 18) << what;
+        EXPECT_GE(r.median_ratio, 0.8) << what;
+        // fog.json's photon gather errs high: a few pixels of the spot's glow, whose neighbours
+        // are several times darker, carry its estimate (docs/error-estimate.md).
+        if (r.scene != "scenes/fog.json" || r.integrator == "path")
+            EXPECT_LE(r.median_ratio, 1.25) << what;
     }
 }
 

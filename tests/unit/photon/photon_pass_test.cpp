@@ -282,6 +282,38 @@ TEST(PhotonPass, GlobalMapCarryingMostOfTheLightFillsItsBudget) {
 // A sun at 45° over a mirror floor; the reflected beam lights a vertical diffuse wall (normal −x)
 // with irradiance E · cos(angle to the wall normal) = E sin θ. Only L S D photons reach the
 // caustic map, so its disc estimate (fixed radius, k unbounded) must converge to E sin θ.
+// Photon batches (photon/estimators.h, BatchSums): a fixed-radius disc estimate times a batch's
+// share is the estimate from a map of that batch's photons alone at 8 times their power, with the
+// box filter and the cone filter (whose weights the shares must carry).
+TEST(SurfaceEstimate, ABatchsShareOfTheDiscEstimateIsTheEstimateOfItsPhotonsAlone) {
+    Rng rng(23, 7);
+    std::vector<Photon> all, alone;
+    const int batch = 3;
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 p(2.0f * rng.uniform() - 1.0f, 2.0f * rng.uniform() - 1.0f, 0.0f);
+        Photon photon(p, Vec3(0.0f, 0.0f, 1.0f), Color(0.5f + rng.uniform()));
+        photon.set_batch(int(rng.uniform() * Photon::kBatches));
+        all.push_back(photon);
+        if (photon.batch() == batch) alone.push_back(photon);
+    }
+    PhotonMap map_all, map_alone;
+    map_all.tree = KdTree<Photon>(std::move(all));
+    map_all.photon_power = 0.01f;
+    map_alone.tree = KdTree<Photon>(std::move(alone));
+    map_alone.photon_power = 0.01f * Photon::kBatches;
+    NeighborList scratch;
+    for (const float cone : {0.0f, 1.1f})
+        for (int i = 0; i < 10; ++i) {
+            const Vec3 x(rng.uniform() - 0.5f, rng.uniform() - 0.5f, 0.0f), n(0.0f, 0.0f, 1.0f);
+            BatchSums sums;
+            const Color whole = surface_irradiance(map_all, x, n, 0, 0.2f, cone, 0, scratch, &sums);
+            const Color expected = surface_irradiance(map_alone, x, n, 0, 0.2f, cone, 0, scratch);
+            for (int c = 0; c < 3; ++c)
+                EXPECT_NEAR(whole[c] * sums.shares()[batch], expected[c], 1e-4f * expected[c])
+                    << "cone " << cone << ", lookup " << i;
+        }
+}
+
 TEST(SurfaceEstimate, CausticIrradianceThroughAMirrorConvergesToAnalytic) {
     const float theta = 45.0f * kPi / 180.0f, E = 2.0f, r = 1.0f;
     SceneDesc d;

@@ -214,7 +214,7 @@ CameraDesc camera_desc() {
 
 Film render_made_up(bool layered, TileShare share, RenderStats* stats) {
     return render_film(
-        Camera(camera_desc()), kSpp, 99, share, layered, false, 1, true, stats,
+        Camera(camera_desc()), kSpp, 99, share, layered, PhotonParts::None, 1, true, stats,
         [] { return State{}; },
         [&](const Ray&, Rng&, State& state, const PixelSample& ps) {
             ++state.rays;
