@@ -95,11 +95,11 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     const double films = pixels * sizeof(Color) * layers * 2;
     const double others =
         pixels * (with_reference ? 2 * sizeof(Color) : 0) + pixels * 2 * sizeof(Color) + pixels * 6;
-    // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 40 more
+    // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 48 more
     // per volume photon, photon beams about 200 (1.5 beams per photon measured on smoke.json,
     // each 28 bytes stored and one or more 44-byte pieces in their hierarchy).
     const PhotonSettings& p = setup.photons;
-    const double per_volume_photon = desc.volume.estimator == VolumeEstimator::Beam          ? 40.0
+    const double per_volume_photon = desc.volume.estimator == VolumeEstimator::Beam          ? 48.0
                                      : desc.volume.estimator == VolumeEstimator::PhotonBeams ? 200.0
                                                                                              : 0.0;
     const double maps = photon ? 20.0 * (double(p.global) + p.caustic + p.volume) +

@@ -42,24 +42,37 @@ Image half_mean(const Film& film, const std::vector<int>& active, size_t parity)
 
 /// Each pixel's mean over its neighbours within kNeighbours pixels (a square less the pixel;
 /// fewer at the edges); `block` > 0: with the pixel, and only those in its block x block block
-/// (so that blocks stay independent).
+/// (so that blocks stay independent). The square's sum by rows, then columns.
 Image neighbour_mean(const Image& in, int block = 0) {
-    Image out(in.width, in.height);
     const bool with_pixel = block > 0;
     if (block <= 0) block = std::max(in.width, in.height);
+    // The window along one axis about c, clipped to the image (of n) and to c's block.
+    const auto window = [&](int c, int n, int* lo, int* hi) {
+        const int start = c / block * block;
+        *lo = std::max(start, c - kNeighbours);
+        *hi = std::min({n - 1, start + block - 1, c + kNeighbours});
+    };
+    Image rows(in.width, in.height), out(in.width, in.height);
     for (int y = 0; y < in.height; ++y)
         for (int x = 0; x < in.width; ++x) {
+            int lo, hi;
+            window(x, in.width, &lo, &hi);
             Color sum(0.0f);
-            int n = 0;
-            const int x0 = x / block * block, y0 = y / block * block;
-            for (int v = std::max(y0, y - kNeighbours);
-                 v <= std::min({in.height - 1, y0 + block - 1, y + kNeighbours}); ++v)
-                for (int u = std::max(x0, x - kNeighbours);
-                     u <= std::min({in.width - 1, x0 + block - 1, x + kNeighbours}); ++u)
-                    if (with_pixel || u != x || v != y) {
-                        sum += in.at(u, v);
-                        ++n;
-                    }
+            for (int u = lo; u <= hi; ++u) sum += in.at(u, y);
+            rows.at(x, y) = sum;
+        }
+    for (int y = 0; y < in.height; ++y)
+        for (int x = 0; x < in.width; ++x) {
+            int x_lo, x_hi, y_lo, y_hi;
+            window(x, in.width, &x_lo, &x_hi);
+            window(y, in.height, &y_lo, &y_hi);
+            Color sum(0.0f);
+            for (int v = y_lo; v <= y_hi; ++v) sum += rows.at(x, v);
+            int n = (x_hi - x_lo + 1) * (y_hi - y_lo + 1);
+            if (!with_pixel) {
+                sum -= in.at(x, y);
+                --n;
+            }
             out.at(x, y) = n > 0 ? sum / float(n) : in.at(x, y);
         }
     return out;

@@ -31,7 +31,12 @@ std::string error_text(const ErrorReport& e) {
     std::string text = "error estimate: relMSE " + general(e.rel_mse) + " [" + general(e.lo) +
                        ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
                        " batches of " + e.batched_by + "\n";
-    if (e.bias_valid) {
+    if (e.bias_valid && e.bias2 <= 0.0)  // noise about a small bias
+        text +=
+            "error estimate: of which the volume map's bias²: too small to measure here (95% "
+            "upper bound " +
+            general(std::max(e.bias_hi, 0.0)) + ")\n";
+    else if (e.bias_valid) {
         text += "error estimate: of which the volume map's bias² " + general(e.bias2) + " [" +
                 general(e.bias_lo) + ", " + general(e.bias_hi) + "] (95%)\n";
         if (e.bias_lo > 0.0)

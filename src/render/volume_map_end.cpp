@@ -246,6 +246,7 @@ bool VolumeMapEnd::assign_slots() {
     if (batched_ && phase_fits_) {
         if (recycle_) reserve_recycled(&batch_power_, nodes.size());
         batch_power_.assign(nodes.size(), BatchPower{});
+        kappa_.assign(nodes.size(), kInnerVolumes);  // σ̄'s ratio 1 until set_table
     }
     return true;
 }
@@ -426,7 +427,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
     if (crowded(m.count)) {
         const float rho = radius_ * std::cbrt(k_ / m.count);
         const Color e = smaller_ball(x, dir, phase, m.count, scratch, parts ? &sums : nullptr);
-        if (parts) parts_of(sums, x, rho, parts);
+        if (parts) parts_of(sums, kappa(x, rho), parts);
         return corrected(e, rho);
     }
     // σ_s L_i from every photon within the radius (k = 0: the fixed-radius sphere estimate).
@@ -435,29 +436,39 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         const float volume = (4.0f / 3.0f) * kPi * radius_ * radius_ * radius_;
         collisions = glm::max(phase_sum(m, -dir, phase), Color(0.0f)) *
                      (map_.photon_power * kInvFourPi / volume);
-        if (parts && !batch_power_.empty()) parts_of(grid_sums(c), x, radius_, parts);
+        if (parts && !batch_power_.empty()) parts_of(grid_sums(c), 1.0f, parts);
     } else {
         collisions =
             volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch, parts ? &sums : nullptr);
-        if (parts) parts_of(sums, x, radius_, parts);
+        if (parts) parts_of(sums, kappa(x, radius_), parts);
     }
     return corrected(divide(collisions, density), radius_);
 }
 
-// PhotonBatches and RadiusBias (header).
-void VolumeMapEnd::parts_of(const BatchSums& sums, const Vec3& x, float rho, Parts* parts) const {
+// RadiusBias (header).
+float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
+    const float inner =
+        table_ ? average(table_->cube_average(x, equal_volume_edge(rho * float(M_SQRT1_2)))) : 0.0f;
+    if (!(inner > 0.0f)) return kInnerVolumes;
+    return kInnerVolumes * average(table_->cube_average(x, equal_volume_edge(rho))) / inner;
+}
+
+void VolumeMapEnd::set_table(const SigmaTable* table) {
+    table_ = table;
+    if (kappa_.empty()) return;
+    tbb::parallel_for(size_t(0), slot_.size(), [&](size_t n) {
+        if (slot_[n] >= 0) kappa_[size_t(slot_[n])] = kappa(density_.node_position(n), radius_);
+    });
+}
+
+// PhotonBatches and RadiusBias (header): 2 (E_h(ρ) − E_h(ρ/√2)) over E, E_h(ρ) = E × 2 P_h / P.
+void VolumeMapEnd::parts_of(const BatchSums& sums, float kappa, Parts* parts) {
     const float all = sums.total();
     if (!(all > 0.0f)) return;
     parts->shares = sums.shares();
     constexpr size_t kHalf = Photon::kBatches / 2;
     std::array<float, 2> half{};
     for (size_t b = 0; b < sums.all.size(); ++b) half[b / kHalf] += sums.all[b];
-    // 2 (E_h(ρ) − E_h(ρ/√2)) over E, with E_h(ρ) = E × 2 P_h / P.
-    const float inner = rho * float(M_SQRT1_2);
-    const float sigma = table_ ? average(table_->cube_average(x, equal_volume_edge(inner))) : 0.0f;
-    const float ratio =
-        sigma > 0.0f ? average(table_->cube_average(x, equal_volume_edge(rho))) / sigma : 1.0f;
-    const float kappa = 2.0f * float(M_SQRT2) * ratio;
     for (size_t h = 0; h < 2; ++h) parts->bias[h] = 4.0f * (half[h] - kappa * sums.inner[h]) / all;
 }
 
@@ -468,7 +479,8 @@ BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {
         if (s < 0) continue;
         const float w = c.weight[n];
         for (size_t b = 0; b < sums.all.size(); ++b) sums.all[b] += w * batch_power_[s].all[b];
-        for (size_t h = 0; h < 2; ++h) sums.inner[h] += w * batch_power_[s].inner[h];
+        for (size_t h = 0; h < 2; ++h)
+            sums.inner[h] += w * kappa_[size_t(s)] * batch_power_[s].inner[h];
     }
     return sums;
 }

@@ -117,9 +117,9 @@ public:
     VolumeMapEnd& operator=(const VolumeMapEnd&) = delete;
     /// Some grid point's ball holds more than 2k photons: lookups there want a SigmaTable.
     bool wants_table() const { return crowded_anywhere_; }
-    /// σ_s over boxes for AdaptiveRadius (may be null: one radius everywhere) and RadiusBias;
-    /// must outlive this.
-    void set_table(const SigmaTable* table) { table_ = table; }
+    /// σ_s over boxes for AdaptiveRadius (may be null: one radius everywhere) and RadiusBias
+    /// (each grid point's κ, computed here); must outlive this.
+    void set_table(const SigmaTable* table);
     int depth() const { return depth_; }  ///< the first vertex paths may end at
     /// A medium vertex at x, the path's `vertex`-th (1-based; diffuse surface vertices count),
     /// ends it in the map (FineEnough).
@@ -157,7 +157,8 @@ public:
     // (Richardson). Each photon half (batches 0-3, 4-7) makes its own from its photons alone,
     // E_h(ρ) = E × 2 P_h / P and E_h(ρ/√2) = E_h(ρ) × (2^{3/2} P_h' / P_h) (σ̄(ρ) / σ̄(ρ/√2)),
     // P the lookup's sum (as the shares weigh it), P_h its half's, P_h' its half's within ρ/√2,
-    // σ̄ from the SigmaTable's cubes (1 without a table): two independent estimates of one bias,
+    // σ̄ from the SigmaTable's cubes (1 without a table; κ = 2^{3/2} σ̄(ρ) / σ̄(ρ/√2) kept per
+    // grid point for the grid's lookups, whose ρ is r): two independent estimates of one bias,
     // whose product a film averages into bias² (render/film.h, BiasHalves). What it leaves out:
     // blur on other scales than ρ (the grid's cells, ≈ r / 2), and the moments' cut series.
 
@@ -207,10 +208,14 @@ public:
     static constexpr float kLeanMinOffset = 0.02f;
 
 private:
-    /// PhotonBatches' and RadiusBias's parts of a lookup at x over radius rho from its batches'
-    /// sums.
-    void parts_of(const BatchSums& sums, const Vec3& x, float rho, Parts* parts) const;
-    /// The batches' sums at x from the grid's corners c, interpolated as the moments are.
+    /// RadiusBias's κ at x for radius rho (kInnerVolumes without a table).
+    float kappa(const Vec3& x, float rho) const;
+    static constexpr float kInnerVolumes = 2.8284271f;  ///< V(ρ) / V(ρ/√2), 2^{3/2}
+    /// PhotonBatches' and RadiusBias's parts of a lookup from its batches' sums, whose inner sums
+    /// are weighed by `kappa`.
+    static void parts_of(const BatchSums& sums, float kappa, Parts* parts);
+    /// The batches' sums at x from the grid's corners c, interpolated as the moments are, the
+    /// inner ones weighed by each point's κ.
     BatchSums grid_sums(const KernelDensity::Corners& c) const;
     /// n photons within r call for AdaptiveRadius.
     bool crowded(float n) const { return table_ && k_ > 0.0f && n > 2.0f * k_; }
@@ -277,6 +282,7 @@ private:
     std::vector<Moments> moments_;  ///< grid points with medium about them
     std::vector<float> counts_;     ///< their photon counts, packed for FineEnough's decision
     std::vector<BatchPower> batch_power_;  ///< theirs, when batched_ and moments_ are built
+    std::vector<float> kappa_;             ///< theirs (RadiusBias), with batch_power_
     const SigmaTable* table_ = nullptr;
     float k_;
     float max_tau_;
