@@ -222,16 +222,14 @@ inline std::array<float, kBatches> batch_weights(int spp, int unit, Film* film) 
 /// variance (K photon batches, each K times sparser). Unbiased for any batch sizes.
 struct PhotonBatchSums {
     std::array<std::array<Color, kBatches>, kBatches> sum{};  ///< [photon batch][sample batch]
-    bool any = false;
     void add(const std::array<Color, kBatches>& delta, size_t b) {
-        any = true;
         for (size_t t = 0; t < size_t(kBatches); ++t) sum[t][b] += delta[t];
     }
     /// `inv`: 1 / (samples in the sample batch), 0 for an empty one.
     Color variance(const std::array<float, kBatches>& inv) const {
         int active = 0;
         for (float w : inv) active += w > 0.0f;
-        if (!any || active < 2) return Color(0.0f);
+        if (active < 2) return Color(0.0f);
         DVec3 pairs(0.0);
         for (const auto& row : sum) {
             DVec3 all(0.0), squares(0.0);

@@ -106,8 +106,8 @@ public:
     /// With k > 0 and a table (set_table), lookups where the grid's ball holds more than 2k
     /// photons gather within a smaller radius instead (see AdaptiveRadius below).
     /// `recycle` (may be null): memory the previous map's grids left (see Buffers), taken and
-    /// given back when this one is destroyed. `batched`: lookups can also say a photon batch's
-    /// share (see PhotonBatches below).
+    /// given back when this one is destroyed. `batched`: lookups can also say each photon
+    /// batch's share and each photon half's bias (Parts: PhotonBatches, RadiusBias below).
     struct Buffers;
     VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius, int depth,
                  float k = 0.0f, float max_tau = 0.0f, Buffers* recycle = nullptr,
