@@ -17,10 +17,12 @@
 #include "render/camera.h"
 #include "render/tiles.h"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace fogmap {
@@ -240,7 +242,9 @@ struct PhotonBatchSums {
             }
             pairs += all * all - squares;
         }
-        return Color(pairs / double(kBatches * (kBatches - 1) * active * (active - 1)));
+        const DVec3 v = pairs / double(kBatches * (kBatches - 1) * active * (active - 1));
+        const double max = std::numeric_limits<float>::max();  // a float holds the result
+        return Color(glm::clamp(v, DVec3(-max), DVec3(max)));
     }
 };
 
@@ -307,8 +311,13 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
             const size_t b = size_t((s / unit) % kBatches);
             batch[b] += beauty;
-            if (photon_batches) photons.add(c.photon_delta, b);
-            if (bias) halves.add(c.bias_half, b);
+            // A non-finite part (an overflow) leaves the sample out of the map's parts only.
+            const auto finite = [](const auto& colors) {
+                return std::all_of(colors.begin(), colors.end(),
+                                   [](const Color& v) { return is_finite(v); });
+            };
+            if (photon_batches && finite(c.photon_delta)) photons.add(c.photon_delta, b);
+            if (bias && finite(c.bias_half)) halves.add(c.bias_half, b);
         }
         for (int b = 0; b < kBatches; ++b)
             film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];

@@ -274,6 +274,38 @@ TEST(RenderFilm, PixelsHoldTheMeanOverSppAndLayersAddUpToTheBeauty) {
     EXPECT_EQ(stats.steps, 4u * 2u * 5u);  // 4 tiles, 2 media of 5 steps each
 }
 
+// Photon parts (film.h, PhotonBatchSums and BiasHalves): every sample of pixel (x, y) says that
+// photon batch t alone would give d_t = (t − 3.5) a more, a = x + 1: one map error that all its
+// samples share, whose variance of the mean the pairs estimate as Σ_t d_t² / (K (K − 1)) =
+// 42 a² / 56; its bias halves are (x, 2x) in each sample half. One sample's parts are infinite:
+// they are left out, and its pixel's map variance stays finite.
+TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
+    const Film film = render_film(
+        Camera(camera_desc()), kSpp, 99, TileShare{}, false, PhotonParts::NoiseAndBias, 1, true,
+        nullptr, [] { return State{}; },
+        [&](const Ray&, Rng&, State&, const PixelSample& ps) {
+            FilmSample f;
+            f.beauty = Color(1.0f);
+            const float a = float(ps.x + 1);
+            for (int t = 0; t < kBatches; ++t) f.photon_delta[t] = Color((float(t) - 3.5f) * a);
+            f.bias_half = {Color(float(ps.x)), Color(2.0f * float(ps.x))};
+            if (ps.x == 5 && ps.y == 4 && ps.s == 1)
+                f.photon_delta[3].x = f.bias_half[1].y = std::numeric_limits<float>::infinity();
+            return f;
+        });
+    ASSERT_EQ(film.bias_halves.size(), 4u);
+    for (int y = 0; y < kH; ++y)
+        for (int x = 0; x < kW; ++x) {
+            const float a = float(x + 1);
+            const Color v = film.map_variance.at(x, y);
+            ASSERT_TRUE(is_finite(v));
+            if (x == 5 && y == 4) continue;
+            for (int c = 0; c < 3; ++c) ASSERT_NEAR(v[c], 42.0f * a * a / 56.0f, 1e-4f * a * a);
+            for (int i = 0; i < 4; ++i)
+                ASSERT_EQ(film.bias_halves[size_t(i)].at(x, y), Color(float(x) * float(1 + i % 2)));
+        }
+}
+
 TEST(RenderFilm, UnlayeredFilmHoldsTheBeautyMeanOverItsShareOfTiles) {
     // Share 1 of 2: tiles 1 and 3, the right column x in [16, 20); the rest stays 0.
     RenderStats stats;
