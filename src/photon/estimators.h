@@ -23,8 +23,9 @@ struct BatchSums {
     std::array<float, 2> inner{};
     /// A photon's part c at squared distance d2 of a lookup of squared radius r2.
     void add(const Photon& p, const Color& c, float d2, float r2) {
-        all[size_t(p.batch())] += average(c);
-        if (2.0f * d2 < r2) inner[size_t(p.batch() * 2 / Photon::kBatches)] += average(c);
+        const float part = average(c);
+        all[size_t(p.batch())] += part;
+        if (2.0f * d2 < r2) inner[size_t(p.batch() * 2 / Photon::kBatches)] += part;
     }
     /// The sum over batches.
     float total() const {

@@ -65,6 +65,13 @@ struct FilmSample {
     }
 };
 
+/// Adds to `delta` (a FilmSample::photon_delta) what a sample's map term `term` would change by
+/// with each photon batch's map alone, whose estimate is the whole's times its share.
+inline void add_photon_delta(const Color& term, const std::array<float, kBatches>& shares,
+                             std::array<Color, kBatches>* delta) {
+    for (size_t t = 0; t < shares.size(); ++t) (*delta)[t] += (shares[t] - 1.0f) * term;
+}
+
 /// Which camera sample of its pixel a ray is: sample s of spp, and the pixel's own key (a stream
 /// apart from the samples'), for integrators that treat some samples of a pixel apart.
 struct PixelSample {

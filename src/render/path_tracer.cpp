@@ -293,8 +293,7 @@ void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, C
         const Color map =
             p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors, &parts);
         *L += map;
-        for (size_t t = 0; t < parts.shares.size(); ++t)
-            ts.photon_delta[t] += (parts.shares[t] - 1.0f) * map;
+        add_photon_delta(map, parts.shares, &ts.photon_delta);
         for (size_t h = 0; h < 2; ++h) ts.bias_half[h] += parts.bias[h] * map;
         ts.gathered += ts.neighbors.size();
     } else {

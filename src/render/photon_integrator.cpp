@@ -147,8 +147,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
     const auto add = [&](Layer layer, const Color& term) {
         out[layer] += term;
         if (!batches) return;
-        const std::array<float, Photon::kBatches> shares = parts.shares();
-        for (size_t b = 0; b < shares.size(); ++b) out.photon_delta[b] += (shares[b] - 1.0f) * term;
+        add_photon_delta(term, parts.shares(), &out.photon_delta);
         parts = BatchSums{};
     };
     Ray ray = camera_ray;

@@ -245,7 +245,7 @@ bool VolumeMapEnd::assign_slots() {
     moments_.assign(nodes.size(), Moments{});
     if (batched_ && phase_fits_) {
         if (recycle_) reserve_recycled(&batch_power_, nodes.size());
-        batch_power_.assign(nodes.size(), BatchPower{});
+        batch_power_.assign(nodes.size(), BatchSums{});
         kappa_.assign(nodes.size(), kInnerVolumes);  // σ̄'s ratio 1 until set_table
     }
     return true;

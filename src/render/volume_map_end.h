@@ -235,9 +235,6 @@ private:
             Color(0.0f), Color(0.0f), Color(0.0f)};  ///< Σ ΔΦ ω_a ω_b: xx, yy, zz, xy, xz, yz
     };
 
-    /// Per grid point: each photon batch's power, the channels' average (PhotonBatches).
-    using BatchPower = BatchSums;
-
 public:
     /// The grids' memory, kept between progressive iterations: a new map's vectors reuse the
     /// capacity of the last one's instead of faulting in fresh pages (docs/why.md).
@@ -247,7 +244,7 @@ public:
         std::vector<int32_t> slot;
         std::vector<Moments> moments;
         std::vector<float> counts;
-        std::vector<BatchPower> batch_power;
+        std::vector<BatchSums> batch_power;
     };
 
 private:
@@ -281,7 +278,9 @@ private:
     std::vector<int32_t> slot_;     ///< per grid point: its moments' index, or −1 (no medium)
     std::vector<Moments> moments_;  ///< grid points with medium about them
     std::vector<float> counts_;     ///< their photon counts, packed for FineEnough's decision
-    std::vector<BatchPower> batch_power_;  ///< theirs, when batched_ and moments_ are built
+    /// theirs: each photon batch's power, the channels' average (PhotonBatches), when batched_
+    /// and moments_ are built
+    std::vector<BatchSums> batch_power_;
     std::vector<float> kappa_;             ///< theirs (RadiusBias), with batch_power_
     const SigmaTable* table_ = nullptr;
     float k_;
