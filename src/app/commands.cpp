@@ -86,8 +86,8 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     const double pixels = double(desc.camera.width) * desc.camera.height;
     const bool photon = setup.photon();
     const bool bias_halves = setup.map_bias();
-    const int layers = (photon ? 1 + kLayerCount : 1) + kBatches +
-                       (setup.photon_batches() ? 1 : 0) + (bias_halves ? 4 : 0);
+    const int layers =
+        1 + kLayerCount + kBatches + (setup.photon_batches() ? 1 : 0) + (bias_halves ? 4 : 0);
     // Films of the beauty, layers, batches, and map variance and bias halves (render/film.h):
     // the run's and the iteration's it adds (pipeline.cpp); the reference and, for progressive
     // runs, the running mean compared with it; the estimate's variance and samples layers; the
@@ -172,7 +172,7 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
     if (args.resume && fs::exists(checkpoint_path))
         resume =
             read_checkpoint(checkpoint_path, {fingerprint, desc.camera.width, desc.camera.height,
-                                              setup.layered(), kMaxProgressiveIterations});
+                                              /*layered=*/true, kMaxProgressiveIterations});
     Checkpoints checkpoints;
     checkpoints.resume = resume ? &*resume : nullptr;
     checkpoints.every_s = args.checkpoint_every;

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/input_file.h"
+#include "core/parallel.h"
 
 #include <ImathBox.h>
 #include <ImfChannelList.h>
@@ -9,6 +10,7 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfThreading.h>
 #include <png.h>
 
 #include <cmath>
@@ -112,9 +114,12 @@ void write_exr(const StagedFile& to, const Image& beauty, const std::vector<Name
             add_rgb(layer.name + ".", *layer.image, &header, &frame_buffer);
         }
         CheckedExrStream stream(&file);
-        // The line-offset table is written when `exr` goes out of scope; a failure there is kept
-        // by `file` and reported by close() below.
-        Imf::OutputFile exr(stream, header);
+        // OpenEXR compresses blocks of lines on the run's threads (the file's bytes do not
+        // depend on how many). The line-offset table is written when `exr` goes out of scope;
+        // a failure there is kept by `file` and reported by close() below.
+        const int threads = active_thread_count();
+        if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
+        Imf::OutputFile exr(stream, header, threads);
         exr.setFrameBuffer(frame_buffer);
         exr.writePixels(beauty.height);
     } catch (const std::exception& e) {

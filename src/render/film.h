@@ -51,7 +51,7 @@ enum class PhotonParts { None, Noise, NoiseAndBias };
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {
     std::array<Color, kLayerCount> layers{};
-    Color beauty{0.0f};  ///< unlayered integrators only
+    Color beauty{0.0f};  ///< read by unlayered films (a layered one adds up the layers)
     /// Where the sample read a photon map in batches (render/volume_map_end.h, PhotonBatches):
     /// its value with batch t's map alone less its value, per photon batch t, and each photon
     /// half's estimate of the map's bias in it (RadiusBias).

@@ -218,21 +218,42 @@ Color PathTracer::shadow(size_t li, const Vec3& origin, const LightSample& s, Rn
 
 // Counts a scattering or bounce vertex of p; false (counted as capped) when max_depth has been
 // reached. *strata: the pixel's strata at the first vertex, else null.
-bool PathTracer::new_vertex(Path& p, ThreadState& ts, const PixelSample** strata) const {
+bool PathTracer::new_vertex(Path& p, Vertex v, ThreadState& ts, const PixelSample** strata) const {
     if (p.depth >= max_depth_) {
         ++ts.capped;
         return false;
     }
     *strata = p.depth == 0 ? p.strata : nullptr;
     ++p.depth;
+    if (v == Vertex::Specular) {
+        p.specular_after |= p.first != Vertex::None;
+    } else {
+        if (p.first == Vertex::None) p.first = v;
+        ++p.scatters;
+    }
     return true;
+}
+
+Layer PathTracer::layer_of(const Path& p, Term term) {
+    const bool scattered = term == Term::Scattered;
+    const int n = p.scatters + (scattered ? 1 : 0);
+    if (n == 0) return term == Term::Emitted ? Layer::Emission : Layer::Direct;
+    if (p.first == Vertex::Medium || (p.first == Vertex::None && scattered))
+        return n == 1 ? Layer::VolumeSingle : Layer::VolumeMultiple;
+    if (n > 1) return Layer::Indirect;
+    return p.specular_after ? Layer::Caustic : Layer::Direct;
+}
+
+void PathTracer::add(const Path& p, Term term, const Color& c, Color* L, ThreadState& ts) {
+    *L += c;
+    if (ts.layered) ts.layers[static_cast<size_t>(layer_of(p, term))] += c;
 }
 
 // A scattering vertex in a medium at x, reached along p.ray: the direct light, then either the
 // path's end (ends_here) or a phase (or guide) sampled direction for p. False: the path ends here.
 bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const {
     const PixelSample* first = nullptr;
-    if (!new_vertex(p, ts, &first)) return false;
+    if (!new_vertex(p, Vertex::Medium, ts, &first)) return false;
     const PhaseMix phase(ts.media, x);
     if (ends_here(p, x)) {
         end_path(p, x, phase, L, rng, ts);
@@ -249,7 +270,7 @@ bool PathTracer::scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState
     Lobe lobe{&phase, p.ray.d, Color(0.0f), guided ? &ts.lobes : nullptr};
     if (first) lobe.sky_u = &sky_u;
     const Color direct = direct_light(x, lobe, rng, ts);
-    *L += p.beta * direct;
+    add(p, Term::Light, p.beta * direct, L, ts);
     // split() plays the roulette.
     const bool splits = policy_.kind() == MediumVertex::Guided && ts.pixel_estimate > 0.0f;
     const int copies = splits ? split(p, x, phase, direct, rng, ts) : 1;
@@ -285,19 +306,21 @@ bool PathTracer::ends_here(Path& p, const Vec3& x) const {
 // the rest from the map or from L̃.
 void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, Color* L, Rng& rng,
                           ThreadState& ts) const {
-    *L += p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts);
+    add(p, Term::Light,
+        p.beta * direct_light(x, Lobe{&phase, p.ray.d, Color(0.0f), nullptr, true}, rng, ts), L,
+        ts);
     ++ts.lookups;
     if (policy_.kind() == MediumVertex::EndInMap) {
         ts.neighbors.clear();
         VolumeMapEnd::Parts parts;
         const Color map =
             p.beta * policy_.end().inscattered(x, p.ray.d, phase, ts.neighbors, &parts);
-        *L += map;
+        add(p, Term::Scattered, map, L, ts);
         add_photon_delta(map, parts.shares, &ts.photon_delta);
         for (size_t h = 0; h < 2; ++h) ts.bias_half[h] += parts.bias[h] * map;
         ts.gathered += ts.neighbors.size();
     } else {
-        *L += p.beta * policy_.split().grid->at(x, p.ray.d, phase);
+        add(p, Term::Scattered, p.beta * policy_.split().grid->at(x, p.ray.d, phase), L, ts);
     }
 }
 
@@ -350,6 +373,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
     p.prev_p = camera_ray.o;
     ts.photon_delta.fill(Color(0.0f));
     ts.bias_half.fill(Color(0.0f));
+    if (ts.layered) ts.layers.fill(Color(0.0f));
     if (ts.media.empty() || policy_.kind() != MediumVertex::EndInMap) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
 }
@@ -367,10 +391,10 @@ Color PathTracer::pick_segment(Path p, Rng& rng, ThreadState& ts) const {
     }
     Color L(0.0f), emitted(0.0f);
     if (has_point_lights_ && p.depth < max_depth_)
-        L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
+        add(p, Term::Scattered, p.beta * point_lights_in_segment(p.ray, t_max, rng, ts), &L, ts);
     const InscatterPick pick =
         ratio_track_pick(ts.media, p.ray, t_max, rng, emissive_ ? &emitted : nullptr);
-    L += p.beta * emitted;
+    add(p, Term::Emitted, p.beta * emitted, &L, ts);
     if (pick.medium >= 0) {
         Path m = p;
         m.beta = p.beta * pick.weight;
@@ -401,7 +425,7 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
             if (s == Segment::Scattered) continue;
         }
         if (!hit) {
-            add_escaped(p, &L);
+            add_escaped(p, &L, ts);
             break;
         }
         if (hit->light >= 0) {  // quad lights are black emitters
@@ -411,7 +435,7 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
                 p.specular
                     ? 1.0f
                     : power_heuristic(p.prev_pdf, light_pdf(light, p.prev_p, p.ray.d, hit->t));
-            L += p.beta * Le * w;
+            add(p, Term::Light, p.beta * Le * w, &L, ts);
             break;
         }
         if (hit->material < 0 || !bounce(p, *hit, &L, rng, ts)) break;
@@ -422,17 +446,17 @@ Color PathTracer::trace(Path p, Rng& rng, ThreadState& ts,
 PathTracer::Segment PathTracer::media_segment(Path& p, float t_max, Color* L, Rng& rng,
                                               ThreadState& ts) const {
     if (has_point_lights_ && p.depth < max_depth_)
-        *L += p.beta * point_lights_in_segment(p.ray, t_max, rng, ts);
+        add(p, Term::Scattered, p.beta * point_lights_in_segment(p.ray, t_max, rng, ts), L, ts);
     Color emitted(0.0f);
     const TrackResult tr = delta_track(ts.media, p.ray, t_max, rng, &p.beta, Collision::Weighted,
                                        emissive_ ? &emitted : nullptr);
-    *L += emitted;
+    add(p, Term::Emitted, emitted, L, ts);
     if (tr.event == TrackEvent::Absorbed) return Segment::Ended;
     if (tr.event != TrackEvent::Scattered) return Segment::Passed;
     return scatter(p, p.ray.at(tr.t), L, rng, ts) ? Segment::Scattered : Segment::Ended;
 }
 
-void PathTracer::add_escaped(const Path& p, Color* L) const {
+void PathTracer::add_escaped(const Path& p, Color* L, ThreadState& ts) const {
     for (const Light& light : scene_.lights) {
         if (!light.is_infinite()) continue;
         const Color Le = escaped_radiance(light, p.ray.d);
@@ -442,16 +466,17 @@ void PathTracer::add_escaped(const Path& p, Color* L) const {
                                   ? p.env_pdf
                                   : light_pdf(light, p.prev_p, p.ray.d, kInfinity);
         const float w = p.specular ? 1.0f : power_heuristic(p.prev_pdf, light_p);
-        *L += p.beta * Le * w;
+        add(p, Term::Light, p.beta * Le * w, L, ts);
     }
 }
 
 // Specular: the material's reflected or refracted ray; diffuse: direct light and a
 // cosine-sampled direction.
 bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, ThreadState& ts) const {
-    const PixelSample* strata = nullptr;
-    if (!new_vertex(p, ts, &strata)) return false;
     const Material& mat = scene_.materials[hit.material];
+    const PixelSample* strata = nullptr;
+    if (!new_vertex(p, mat.is_specular() ? Vertex::Specular : Vertex::Diffuse, ts, &strata))
+        return false;
     const Vec3 n = glm::dot(p.ray.d, hit.ng) < 0.0f ? hit.ng : -hit.ng;  // faces the ray
     Vec2 u(rng.uniform(), rng.uniform());
     if (strata) u = stratified(*strata, kDirectionDim, u);
@@ -468,7 +493,7 @@ bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, Thre
             sky_u = stratified(*strata, kSkyDim, Vec2(rng.uniform(), rng.uniform()));
             lobe.sky_u = &sky_u;
         }
-        *L += p.beta * direct_light(hit.p, lobe, rng, ts);
+        add(p, Term::Light, p.beta * direct_light(hit.p, lobe, rng, ts), L, ts);
         const Vec3 wi = sample_cosine_hemisphere(n, u);
         p.prev_pdf = std::max(glm::dot(wi, n), 0.0f) * kInvPi;
         p.env_pdf = p.prev_pdf;  // the environment's light sample: the same cosine
@@ -484,17 +509,23 @@ bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, Thre
 static_assert(Photon::kBatches == kBatches, "FilmSample::photon_delta: one per photon batch");
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const PathPolicy& policy, TileShare tiles) {
+                 const PathPolicy& policy, TileShare tiles, bool layered) {
     const PathTracer tracer(scene, settings.max_depth, policy);
     const PhotonParts parts = policy.kind() == MediumVertex::EndInMap && policy.end().batched()
                                   ? PhotonParts::NoiseAndBias
                                   : PhotonParts::None;
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/false, parts,
-        strata_unit(settings.spp), quiet, stats, [&] { return tracer.make_state(); },
+        Camera(scene.camera), settings.spp, settings.seed, tiles, layered, parts,
+        strata_unit(settings.spp), quiet, stats,
+        [&] {
+            PathTracer::ThreadState ts = tracer.make_state();
+            ts.layered = layered;
+            return ts;
+        },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
+            sample.layers = ts.layers;
             sample.photon_delta = ts.photon_delta;
             sample.bias_half = ts.bias_half;
             return sample;

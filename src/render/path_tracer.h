@@ -135,6 +135,10 @@ public:
         /// VolumeMapEnd's).
         std::array<Color, kBatches> photon_delta{};
         std::array<Color, 2> bias_half{};
+        /// Set by the caller: the camera sample's radiance is also split into layers (by the
+        /// path's vertices, layer_of) and summed here.
+        bool layered = false;
+        std::array<Color, kLayerCount> layers{};
     };
     ThreadState make_state() const;
 
@@ -145,6 +149,12 @@ public:
 
 private:
     struct Lobe;
+    /// A vertex of a camera path, as the layers tell them apart.
+    enum class Vertex : uint8_t { None, Medium, Diffuse, Specular };
+    /// What a term of the radiance adds to its path's vertices: nothing (light from a light,
+    /// `Emitted` from a medium along a segment) or one or more scattering vertices in a medium
+    /// (a point light's single scattering over a segment, the volume map's light).
+    enum class Term { Light, Emitted, Scattered };
     /// A camera path's state between vertices.
     struct Path {
         Ray ray;
@@ -159,15 +169,26 @@ private:
         /// map as a medium's scattering does; specular bounces do not count).
         int gather_vertices = 0;
         const PixelSample* strata = nullptr;  ///< the camera sample's (radiance)
+        Vertex first = Vertex::None;          ///< the first medium or diffuse vertex (the layers')
+        int scatters = 0;                     ///< medium and diffuse vertices so far
+        bool specular_after = false;  ///< a specular bounce after the first (a caustic's path)
     };
+    /// The layer of a term of kind `term` added to the radiance of path p: light with no
+    /// scattering vertex is emission (from media) or direct (a light seen); with one, direct or
+    /// volume_single by the vertex's kind (caustic when specular bounces led from a diffuse
+    /// vertex to the light); with more, volume_multiple or indirect by the first vertex's kind.
+    static Layer layer_of(const Path& p, Term term);
+    /// *L += c, and the sample's layers when ts.layered.
+    static void add(const Path& p, Term term, const Color& c, Color* L, ThreadState& ts);
     /// The path's next segment by ratio_track_pick: both the picked medium vertex and what lies
     /// behind (the point lights' segment estimate and the media's emission included).
     Color pick_segment(Path p, Rng& rng, ThreadState& ts) const;
     /// A medium vertex at x: direct light, then the end (false) or a new direction for p
     /// (false when Russian roulette ends it); a split's other copies traced into *L.
     bool scatter(Path& p, const Vec3& x, Color* L, Rng& rng, ThreadState& ts) const;
-    /// Counts a vertex of p; false past max_depth. *strata: the pixel's at the first vertex.
-    bool new_vertex(Path& p, ThreadState& ts, const PixelSample** strata) const;
+    /// Counts a vertex of p of kind v; false past max_depth. *strata: the pixel's at the first
+    /// vertex.
+    bool new_vertex(Path& p, Vertex v, ThreadState& ts, const PixelSample** strata) const;
     /// True: the policy ends p at its medium vertex x (EndInMap: counts it as a gather vertex).
     bool ends_here(Path& p, const Vec3& x) const;
     /// Into *L, the light of a path ending at medium vertex x: its direct light and the map's
@@ -193,7 +214,7 @@ private:
     /// vertex) or Ended.
     Segment media_segment(Path& p, float t_max, Color* L, Rng& rng, ThreadState& ts) const;
     /// Into *L, the infinite lights seen by p, which has left the scene.
-    void add_escaped(const Path& p, Color* L) const;
+    void add_escaped(const Path& p, Color* L, ThreadState& ts) const;
     /// A surface vertex `hit` with a material: direct light and a new direction for p. False:
     /// max_depth or Russian roulette ended the path.
     bool bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, ThreadState& ts) const;
@@ -213,9 +234,11 @@ private:
 
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
 /// settings.max_depth (the worker count is the caller's ThreadLimit), medium vertices as
-/// `policy` says. An unlayered film. Progress on stderr unless quiet.
+/// `policy` says. A layered film (PathTracer::layer_of) when `layered`. Progress on stderr
+/// unless quiet.
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const PathPolicy& policy = PathPolicy::plain(), TileShare tiles = {});
+                 const PathPolicy& policy = PathPolicy::plain(), TileShare tiles = {},
+                 bool layered = false);
 
 /// AdjointSplit's Ĩ: a render of kPixelEstimateSpp samples a pixel whose paths end at their first
 /// medium vertex with L̃ from `grid`, its average over each pixel's 3 × 3 neighbourhood within its

@@ -330,7 +330,7 @@ Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
     return render_path(
         scene_, settings, quiet_pass_, stats,
         grid ? PathPolicy::guided(guide ? &*guide : nullptr, split) : PathPolicy::plain(),
-        setup_.tiles);
+        setup_.tiles, /*layered=*/true);
 }
 
 /// Camera paths traced as the path tracer does, ended in the volume map.
@@ -366,14 +366,15 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
     return render_path(
         scene_, settings, quiet_pass_, stats,
         end ? PathPolicy::end_in_map(*end, &*sun_shadows_) : PathPolicy::plain(&*sun_shadows_),
-        setup_.tiles);
+        setup_.tiles, /*layered=*/true);
 }
 
 /// Iteration i: the photon pass where the method has maps, then the method's render.
 Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
     const RenderSettings settings = iteration_settings(i);
     if (setup_.method == Method::Path)
-        return render_path(scene_, settings, quiet_pass_, stats, PathPolicy::plain(), setup_.tiles);
+        return render_path(scene_, settings, quiet_pass_, stats, PathPolicy::plain(), setup_.tiles,
+                           /*layered=*/true);
     const PhotonMaps maps = trace_maps(settings.seed, i, it);
     if (i == 1) first_gather_ = gather_params(desc_, scene_, maps, progressive_);
     const GatherParams gather = gather_at_iteration(*first_gather_, i, desc_.progressive.alpha);
@@ -476,7 +477,7 @@ int RunLoop::iteration_cap() const {
 void RunLoop::gather_to_root() {
     counts_.clamped = int64_t(sum_.clamped);
     std::vector<int64_t> c = counts_.pack();
-    if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, setup_.layered());
+    if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, /*layered=*/true);
     if (ranks_) {
         const Timer reduce;
         ranks_->sum_to_root(&c);

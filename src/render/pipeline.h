@@ -33,7 +33,7 @@ struct Checkpoints {
 };
 
 struct PipelineResult {
-    Film film;      ///< mean over iterations; layered for the photon integrator
+    Film film;      ///< mean over iterations, layered
     Report report;  ///< plan, settings, phases (summed over iterations), maps, iterations, mean
 };
 

@@ -52,7 +52,7 @@ struct RunSetup {
     TileShare tiles;         ///< the tiles this process renders (MPI ranks, auto's pilot)
     Plan plan;               ///< the maps and passes this run needs, and why
 
-    /// The photon integrator's methods (the others have no iterations and no layers).
+    /// The photon integrator's methods (the others trace no photon maps).
     bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
     /// A plain run's photon maps serve every sample, so samples read them in photon batches and
     /// the film measures their noise (and, where camera paths end in the volume map, its bias):
@@ -61,7 +61,6 @@ struct RunSetup {
     bool photon_batches() const;
     /// And the volume map's bias from its radius is measured (VolumeMapEnd, RadiusBias).
     bool map_bias() const { return photon_batches() && method == Method::MapEnd; }
-    bool layered() const { return method == Method::Gather; }  ///< a film with layers
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
     void set_reason(std::string why);
 };

@@ -44,12 +44,17 @@ Estimate estimate(int n, F&& f) {
     return {samples.mean(), samples.standard_error()};
 }
 
-/// The path tracer's radiance along kRay, and the photon integrator's emission layer.
-Estimate path_radiance(const SceneDesc& d, int n) {
+/// The path tracer's radiance along kRay (its emission layer alone when `layer`), and the photon
+/// integrator's emission layer.
+Estimate path_radiance(const SceneDesc& d, int n, bool layer = false) {
     const auto scene = load_scene(d);
     const PathTracer tracer(*scene, d.render.max_depth);
     PathTracer::ThreadState ts = tracer.make_state();
-    return estimate(n, [&](Rng& rng) { return tracer.radiance(kRay, rng, ts); });
+    ts.layered = layer;
+    return estimate(n, [&](Rng& rng) {
+        const Color L = tracer.radiance(kRay, rng, ts);
+        return layer ? ts.layers[size_t(Layer::Emission)] : L;
+    });
 }
 
 Estimate photon_emission(const SceneDesc& d, int n) {
@@ -87,7 +92,7 @@ TEST(EmissionRender, HomogeneousSlabMatchesTheClosedForm) {
     expect_near(path_radiance(d, 40000), want, 0.0, "path tracer");
     expect_near(photon_emission(d, 200), want, 1e-4, "photon integrator");
 
-    // Scattering as well: the emission seen directly is L_e σ_a/σ_t (1 − e^{−σ_t d}) (the photon
+    // Scattering as well: the emission seen directly is L_e σ_a/σ_t (1 − e^{−σ_t d}) (either
     // integrator's emission layer; the scattered part is another layer's).
     d.media[0].sigma_s = Color(1.0f);
     for (int c = 0; c < 3; ++c) {
@@ -95,6 +100,7 @@ TEST(EmissionRender, HomogeneousSlabMatchesTheClosedForm) {
         want[c] = Le[c] * sigma_a[c] / sigma_t * -std::expm1(-sigma_t * depth);
     }
     expect_near(photon_emission(d, 200), want, 1e-4, "photon integrator, scattering slab");
+    expect_near(path_radiance(d, 40000, /*layer=*/true), want, 0.0, "path tracer, scattering slab");
 }
 
 TEST(EmissionRender, VdbBlockWithItsRampsMatchesTheClosedForm) {

@@ -1,7 +1,8 @@
 // The reference path tracer against closed forms: white furnaces (energy is neither lost nor
 // gained), a diffuse plane under a sun, a plane under a rectangular area light (form factor),
-// single scattering in a slab and, with paths ended by PathPolicy::pixel_estimate, in a cube, and
-// bit-identical images for 1 and 2 threads.
+// single scattering in a slab and, with paths ended by PathPolicy::pixel_estimate, in a cube, the
+// layers' split of a slab's light and of a sky seen through a mirror, and bit-identical images for
+// 1 and 2 threads.
 // Stochastic checks use n independent samples and a tolerance of 3 (or 4) standard errors of
 // the sample mean, estimated from the same samples.
 
@@ -41,6 +42,33 @@ MeanEstimate radiance_mean(const Scene& scene, int max_depth, const Ray& ray, in
     }
     const double mean = sum / n;
     return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n)};
+}
+
+// Each layer's mean radiance (channel 0) of n samples of one ray, with its standard error; every
+// sample's layers must add up to its radiance.
+std::array<MeanEstimate, kLayerCount> layer_means(const Scene& scene, const Ray& ray, int n) {
+    const PathTracer tracer(scene, RenderSettings{}.max_depth);
+    PathTracer::ThreadState ts = tracer.make_state();
+    ts.layered = true;
+    std::array<double, kLayerCount> sum{}, sum2{};
+    for (int i = 0; i < n; ++i) {
+        Rng rng(43, i);
+        const double L = tracer.radiance(ray, rng, ts)[0];
+        double parts = 0.0;
+        for (int l = 0; l < kLayerCount; ++l) {
+            const double v = ts.layers[size_t(l)][0];
+            parts += v;
+            sum[size_t(l)] += v;
+            sum2[size_t(l)] += v * v;
+        }
+        EXPECT_NEAR(parts, L, 1e-5 * L) << "sample " << i;
+    }
+    std::array<MeanEstimate, kLayerCount> out;
+    for (size_t l = 0; l < out.size(); ++l) {
+        const double mean = sum[l] / n;
+        out[l] = {mean, std::sqrt(std::max(0.0, sum2[l] / n - mean * mean) / n)};
+    }
+    return out;
 }
 
 // Henyey–Greenstein written out independently of media/henyey_greenstein.h.
@@ -186,6 +214,54 @@ TEST(SingleScattering, ThinSlabMatchesClosedForm) {
                             (std::exp(-sigma_t * d_slab) - std::exp(-sigma_t * d_slab * c)) /
                             (sigma_t * (c - 1.0));
     EXPECT_NEAR(e.mean, expected, 3.0 * e.standard_error);
+}
+
+TEST(PathLayers, SingleScatteringInASlabIsTheVolumeSingleLayer) {
+    // The slab of ThinSlabMatchesClosedForm at its full depth: the volume_single layer holds
+    // the closed form's single scattering, volume_multiple the rest, and no other layer any.
+    const float d_slab = 0.5f, sigma_s = 0.6f, sigma_a = 0.3f, g = 0.4f, E = 5.0f;
+    const float theta = 40.0f * kPi / 180.0f;
+    SceneDesc d = base_desc();
+    d.lights.push_back(sun(Vec3(std::sin(theta), -std::cos(theta), 0.0f), E));
+    d.media.push_back(homogeneous(Box3{Vec3(-100.0f, 0.0f, -100.0f), Vec3(100.0f, d_slab, 100.0f)},
+                                  Color(sigma_s), Color(sigma_a), g));
+    const auto scene = load_scene(d);
+    const Ray ray{Vec3(0.0f, -1.0f, 0.0f), Vec3(0.0f, 1.0f, 0.0f)};
+    const auto layers = layer_means(*scene, ray, 100000);
+    const double sigma_t = sigma_s + sigma_a, c = 1.0 / std::cos(theta);
+    const double p = hg_phase_reference(std::cos(theta), g);  // light along sun, out along -y
+    const double single = sigma_s * p * E *
+                          (std::exp(-sigma_t * d_slab) - std::exp(-sigma_t * d_slab * c)) /
+                          (sigma_t * (c - 1.0));
+    const MeanEstimate& s = layers[size_t(Layer::VolumeSingle)];
+    EXPECT_NEAR(s.mean, single, 3.0 * s.standard_error);
+    EXPECT_GT(layers[size_t(Layer::VolumeMultiple)].mean, 0.0);
+    for (Layer l : {Layer::Direct, Layer::Caustic, Layer::Indirect, Layer::Emission})
+        EXPECT_EQ(layers[size_t(l)].mean, 0.0) << kLayerNames[size_t(l)];
+}
+
+TEST(PathLayers, SkyThroughAMirrorIsTheCausticLayer) {
+    // A diffuse floor (albedo ρ) under a constant sky L, a large vertical mirror one unit beside
+    // the point seen: the mirror turns the half of the floor's hemisphere that faces it (half of
+    // the cosine-weighted measure) to sky again, so the point's radiance is ρ L, of which ρ L / 2
+    // comes straight from the sky (direct) and ρ L / 2 by the mirror (caustic); upwards from a
+    // plane nothing reaches the floor again (no indirect).
+    const float rho = 0.5f, L = 1.0f, big = 1e4f;
+    SceneDesc d = base_desc();
+    d.lights.push_back(environment(L));
+    add_ground(&d, 0.0f, big, rho);
+    d.materials["mirror"] = MaterialDesc{MaterialType::Mirror, Color(1.0f), 1.5f};
+    d.shapes.push_back(quad(Vec3(1.0f, 0.0f, -big), Vec3(0.0f, big, 0.0f),
+                            Vec3(0.0f, 0.0f, 2.0f * big), "mirror"));
+    const auto scene = load_scene(d);
+    const Ray ray{Vec3(-0.3f, 1.0f, 0.0f), glm::normalize(Vec3(0.3f, -1.0f, 0.0f))};
+    const auto layers = layer_means(*scene, ray, 40000);
+    for (Layer l : {Layer::Direct, Layer::Caustic}) {
+        const MeanEstimate& e = layers[size_t(l)];
+        EXPECT_NEAR(e.mean, 0.5 * rho * L, 3.0 * e.standard_error + 1e-6) << kLayerNames[size_t(l)];
+    }
+    for (Layer l : {Layer::VolumeSingle, Layer::VolumeMultiple, Layer::Indirect, Layer::Emission})
+        EXPECT_EQ(layers[size_t(l)].mean, 0.0) << kLayerNames[size_t(l)];
 }
 
 TEST(DepthCap, EveryPathInADeepConservativeMediumIsCountedAsCut) {
