@@ -148,45 +148,80 @@ MajorantGrid build_majorants(FloatTree& tree, const Box3& index_bounds) {
 /// leaf or a single value, so 8 probes per cell find every source. Also fills maj->min_density:
 /// the footprint's least value, below every trilinear sample in the cell (a convex combination
 /// of footprint values).
-detail::Bricks build_bricks(const FloatTree& tree, MajorantGrid* majorants) {
+using Brick = std::array<float, detail::kBrickValues>;
+using ConstAccessor = openvdb::tree::ValueAccessor<const FloatTree>;
+
+/// The 9^3 footprint of the cell with lowest voxel o: the cell's own node, then its +1
+/// neighbours' first layer of voxels.
+void fill_brick(ConstAccessor& acc, const Coord& o, Brick* brick) {
     constexpr int kEdge = detail::kBrickEdge, kCell = DensityGrid::kMajorantCell;
+    for (int d = 0; d < 8; ++d) {  // the cell itself, then its +1 neighbours
+        const int dx = d & 1, dy = (d >> 1) & 1, dz = d >> 2;
+        const Coord node = o.offsetBy(kCell * dx, kCell * dy, kCell * dz);
+        const Leaf* leaf = acc.probeConstLeaf(node);
+        const float tile = leaf ? 0.0f : acc.getValue(node);
+        // A neighbour supplies only its local coordinate 0 along the axes it is +1 on.
+        for (int x = 0; x < (dx ? 1 : kCell); ++x)
+            for (int y = 0; y < (dy ? 1 : kCell); ++y)
+                for (int z = 0; z < (dz ? 1 : kCell); ++z) {
+                    const int b =
+                        ((kCell * dx + x) * kEdge + kCell * dy + y) * kEdge + kCell * dz + z;
+                    (*brick)[b] = leaf ? leaf->getValue((x << 6) | (y << 3) | z) : tile;
+                }
+    }
+}
+
+bool uniform(const Brick& brick) {
+    return std::all_of(brick.begin(), brick.end(), [&](float v) { return v == brick[0]; });
+}
+
+/// The cell with lowest voxel o needs a brick: its own leaf holds two values (found at once,
+/// almost always), else its whole footprint is not one value.
+bool needs_brick(ConstAccessor& acc, const Coord& o, Brick* scratch) {
+    const Leaf* leaf = acc.probeConstLeaf(o);
+    const float* v = leaf ? leaf->buffer().data() : nullptr;
+    if (v && std::any_of(v + 1, v + Leaf::SIZE, [&](float x) { return x != v[0]; })) return true;
+    fill_brick(acc, o, scratch);
+    return !uniform(*scratch);
+}
+
+/// A cell's lowest voxel.
+Coord cell_origin(const MajorantGrid& maj, int i, int j, int k) {
+    constexpr int kCell = DensityGrid::kMajorantCell;
+    return Coord(maj.origin[0] + kCell * i, maj.origin[1] + kCell * j, maj.origin[2] + kCell * k);
+}
+
+detail::Bricks build_bricks(const FloatTree& tree, MajorantGrid* majorants) {
     const MajorantGrid& maj = *majorants;
     detail::Bricks out;
     out.cells.resize(maj.max_density.size());
     majorants->min_density.assign(maj.max_density.size(), 0.0f);
-    openvdb::tree::ValueAccessor<const FloatTree> acc(tree);
-    std::array<float, detail::kBrickValues> brick;
-    size_t n = 0;
+    ConstAccessor acc(tree);
+    Brick brick;
+    // The bricks counted first, so that their array is allocated once at its size: grown by
+    // doubling and then trimmed, it took up to three times their memory at its peak.
+    size_t bricks = 0, n = 0;
+    for (int k = 0; k < maj.dims[2]; ++k)
+        for (int j = 0; j < maj.dims[1]; ++j)
+            for (int i = 0; i < maj.dims[0]; ++i, ++n)
+                // Values are >= 0 after sanitizing: a zero majorant means 9^3 zeros.
+                if (maj.max_density[n] > 0.0f)
+                    bricks += needs_brick(acc, cell_origin(maj, i, j, k), &brick);
+    out.values.reserve(bricks * detail::kBrickValues);
+    n = 0;
     for (int k = 0; k < maj.dims[2]; ++k)
         for (int j = 0; j < maj.dims[1]; ++j)
             for (int i = 0; i < maj.dims[0]; ++i, ++n) {
-                // Values are >= 0 after sanitizing: a zero majorant means 9^3 zeros.
                 if (maj.max_density[n] == 0.0f) continue;
-                const Coord o(maj.origin[0] + kCell * i, maj.origin[1] + kCell * j,
-                              maj.origin[2] + kCell * k);
-                for (int d = 0; d < 8; ++d) {  // the cell itself, then its +1 neighbours
-                    const int dx = d & 1, dy = (d >> 1) & 1, dz = d >> 2;
-                    const Coord node = o.offsetBy(kCell * dx, kCell * dy, kCell * dz);
-                    const Leaf* leaf = acc.probeConstLeaf(node);
-                    const float tile = leaf ? 0.0f : acc.getValue(node);
-                    // A neighbour supplies only its local coordinate 0 along the axes it is +1 on.
-                    for (int x = 0; x < (dx ? 1 : kCell); ++x)
-                        for (int y = 0; y < (dy ? 1 : kCell); ++y)
-                            for (int z = 0; z < (dz ? 1 : kCell); ++z) {
-                                const int b = ((kCell * dx + x) * kEdge + kCell * dy + y) * kEdge +
-                                              kCell * dz + z;
-                                brick[b] = leaf ? leaf->getValue((x << 6) | (y << 3) | z) : tile;
-                            }
-                }
+                fill_brick(acc, cell_origin(maj, i, j, k), &brick);
                 detail::BrickCell& cell = out.cells[n];
                 cell.value = brick[0];
                 majorants->min_density[n] = *std::min_element(brick.begin(), brick.end());
-                if (std::all_of(brick.begin(), brick.end(), [&](float v) { return v == brick[0]; }))
-                    continue;
+                if (uniform(brick)) continue;
                 cell.brick = static_cast<int32_t>(out.values.size() / detail::kBrickValues);
                 out.values.insert(out.values.end(), brick.begin(), brick.end());
             }
-    out.values.shrink_to_fit();
+    FOGMAP_ASSERT(out.values.size() == bricks * detail::kBrickValues, "bricks counted exactly");
     return out;
 }
 
@@ -212,8 +247,16 @@ DMat4 to_glm(const openvdb::Mat4d& m) {
 /// hold one). One active tile at the root level spans 4096^3 voxels: 134 million cells, ~6 GB.
 constexpr uint64_t kMaxSamplerCells = uint64_t(1) << 26;
 
+/// A float leaf's voxel values in memory: no tree of `tree_bytes` holds more than
+/// tree_bytes / kLeafValueBytes leaves.
+constexpr double kLeafValueBytes = 512.0 * sizeof(float);
+
+/// Refuses a grid whose sampler (for its active box and `leaves` leaves) has too many cells or,
+/// with `tree_bytes` (OpenVDB's tree, not yet read; 0 once it is), needs more than the memory
+/// available.
 void check_sampler_size(const std::string& path, const std::string& field,
-                        const std::string& grid_name, const CoordBBox& active, uint64_t leaves) {
+                        const std::string& grid_name, const CoordBBox& active, uint64_t leaves,
+                        uint64_t tree_bytes = 0) {
     constexpr int kCell = DensityGrid::kMajorantCell;
     double cells = 1.0, parts = 1.0;
     std::string span;
@@ -230,15 +273,47 @@ void check_sampler_size(const std::string& path, const std::string& field,
     const double bytes = 32.0 * parts + 12.0 * cells +
                          bricks * detail::kBrickValues * static_cast<double>(sizeof(float));
     const uint64_t budget = memory_budget_bytes();
-    if (cells <= double(kMaxSamplerCells) && bytes <= double(budget)) return;
+    if (cells <= double(kMaxSamplerCells) && bytes + double(tree_bytes) <= double(budget)) return;
+    const std::string tree =
+        tree_bytes > 0 ? "reading it takes about " + mb_text(tree_bytes) + " (OpenVDB's tree) and "
+                       : "";
     throw InputError(
         path, field,
-        "grid '" + grid_name + "': its active voxels span " + span +
-            " voxels; the density sampler (cells of 8^3 voxels over that whole box) would need " +
+        "grid '" + grid_name + "': its active voxels span " + span + " voxels; " + tree +
+            "the density sampler (cells of 8^3 voxels over that whole box) would need " +
             std::to_string(static_cast<uint64_t>(cells)) + " cells and about " +
             mb_text(static_cast<uint64_t>(bytes)) + "; expected at most " +
             std::to_string(kMaxSamplerCells) + " cells and the memory available (" +
             mb_text(budget) + ")");
+}
+
+/// Before grid `grid_name` is read (the probe's child reads it too): the memory its tree and
+/// sampler will take, from the metadata OpenVDB writes with each grid (file_mem_bytes, the
+/// tree's in-memory size; file_bbox_min and file_bbox_max, its active box), checked as
+/// check_sampler_size does, so that a grid too big for the machine is refused with its sizes
+/// instead of the kernel's ending the process. A file without that metadata (or whose metadata
+/// cannot be read: the probe reports why) is checked once read.
+void check_before_reading(const std::string& path, const std::string& field,
+                          const std::string& grid_name) {
+    openvdb::GridBase::Ptr meta;
+    try {
+        openvdb::io::File file(path);
+        file.open(/*delayLoad=*/true);
+        if (file.hasGrid(grid_name)) meta = file.readGridMetadata(grid_name);
+        file.close();
+    } catch (const std::exception&) {
+        return;
+    }
+    if (!meta) return;
+    const auto bytes = meta->getMetadata<openvdb::Int64Metadata>("file_mem_bytes");
+    const auto lo = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_min");
+    const auto hi = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_max");
+    if (!bytes || !lo || !hi || bytes->value() <= 0) return;
+    const CoordBBox active(Coord(lo->value()), Coord(hi->value()));
+    if (active.empty()) return;
+    const double tree = double(bytes->value());
+    check_sampler_size(path, field, grid_name, active, uint64_t(tree / kLeafValueBytes) + 1,
+                       uint64_t(tree));
 }
 
 }  // namespace
@@ -265,6 +340,7 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                                const std::string& field) {
     init_openvdb();
     check_vdb_file(path, field);
+    check_before_reading(path, field, grid_name);
     probe_vdb(path, field);  // OpenVDB 10.0 can crash on a corrupt file: read it in a child first
     FloatGrid::Ptr grid;
     DMat4 index_to_world(1.0);

@@ -118,7 +118,7 @@ public:
     /// Bytes of the sampling layout (cells and bricks): what the grid keeps after load.
     size_t sampler_bytes() const {
         return bricks_.cells.size() * sizeof(detail::BrickCell) +
-               bricks_.values.size() * sizeof(float);
+               bricks_.values.capacity() * sizeof(float);
     }
 
     /// Trilinear sampler: a view of the grid's cells and bricks. Cheap to make; one per

@@ -221,6 +221,29 @@ TEST_F(HostileInput, ImageMemoryIsEstimatedBeforeRendering) {
     expect_one_error(r, 2, {"/camera/width", "16384 x 16384", "images 105984 MB", "available"});
 }
 
+TEST_F(HostileInput, AGridTooBigForTheMemoryIsRefusedFromItsMetadataBeforeItIsRead) {
+    // An 8^3 grid whose metadata (file_mem_bytes, which OpenVDB writes with every grid: its tree's
+    // size in memory) says 10^12 bytes: refused from the metadata before the file is read, with
+    // the tree's size in MB (10^12 / 2^20, rounded up: 953675) beside the sampler's.
+    openvdb::initialize();
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    grid->setName("density");
+    for (int n = 0; n < 512; ++n)
+        grid->tree().setValue(openvdb::Coord(n >> 6, (n >> 3) & 7, n & 7), 1.0f);
+    grid->insertMeta("file_mem_bytes", openvdb::Int64Metadata(1000000000000));
+    grid->insertMeta("file_bbox_min", openvdb::Vec3IMetadata(openvdb::Vec3i(0, 0, 0)));
+    grid->insertMeta("file_bbox_max", openvdb::Vec3IMetadata(openvdb::Vec3i(7, 7, 7)));
+    const std::string vdb = path("huge.vdb");
+    openvdb::io::File file(vdb);
+    file.setGridStatsMetadataEnabled(false);  // keeps the metadata set above
+    file.write({grid});
+    file.close();
+    const RunResult r = run("render -q " + vdb_scene(vdb) + " -o " + path("o.exr"), "timeout 60 ");
+    expect_one_error(r, 2,
+                     {"huge.vdb", "/media/0", "reading it takes about 953675 MB", "OpenVDB's tree",
+                      "density sampler", "available"});
+}
+
 TEST_F(HostileInput, VdbWhoseActiveTileSpansTheIndexSpaceIsRefusedUpFront) {
     // A 600-byte file: one active tile at the root level (4096^3 voxels) at voxel size 0.001.
     // The sampler's cells cover the active box: 512^3 cells, ~6 GB, minutes of work.

@@ -235,6 +235,46 @@ TEST_F(DensityGridTest, TilesAreSampledAndBounded) {
     expect_majorants_bound(*grid, 4, 13);
 }
 
+TEST_F(DensityGridTest, TheSamplerKeepsABrickPerFootprintOfTwoValuesAndNoMore) {
+    // A 4^3 block of leaf-sized tiles of 0.5, one inner tile made a leaf of 0.5 (uniform, yet a
+    // leaf), and a 20^3 block of random values apart: a cell needs a brick exactly when its 9^3
+    // footprint (its voxels and the first layer of its +x, +y, +z neighbours) holds two values,
+    // counted here by reading the footprints from the tree; the sampler keeps that many bricks
+    // and no spare capacity.
+    openvdb::FloatGrid::Ptr g = openvdb::FloatGrid::create(0.0f);
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j)
+            for (int k = 0; k < 4; ++k)
+                g->tree().addTile(1, openvdb::Coord(8 * i, 8 * j, 8 * k), 0.5f, true);
+    g->tree().touchLeaf(openvdb::Coord(8, 8, 8));  // the tile's values, as a leaf
+    ASSERT_NE(g->tree().probeConstLeaf(openvdb::Coord(8, 8, 8)), nullptr);
+    Rng rng(5, 6);
+    for (int n = 0; n < 20 * 20 * 20; ++n)
+        g->tree().setValue(openvdb::Coord(60 + n / 400, 60 + (n / 20) % 20, 60 + n % 20),
+                           0.1f + rng.uniform());
+    g->setName("density");
+    write_vdb(path("mixed.vdb"), g);
+    auto grid = DensityGrid::load(path("mixed.vdb"), "density", "");
+    const MajorantGrid& m = grid->majorants();
+    openvdb::FloatGrid::ConstAccessor acc = g->getConstAccessor();
+    size_t cells = 0, bricks = 0;
+    for (int i = 0; i < m.dims[0]; ++i)
+        for (int j = 0; j < m.dims[1]; ++j)
+            for (int k = 0; k < m.dims[2]; ++k, ++cells) {
+                const openvdb::Coord o(m.origin[0] + m.cell * i, m.origin[1] + m.cell * j,
+                                       m.origin[2] + m.cell * k);
+                const float first = acc.getValue(o);
+                bool two = false;
+                for (int n = 0; n < 9 * 9 * 9 && !two; ++n)
+                    two = acc.getValue(o.offsetBy(n / 81, (n / 9) % 9, n % 9)) != first;
+                bricks += two;
+            }
+    EXPECT_GT(bricks, 0u);
+    EXPECT_LT(bricks, cells / 2);
+    EXPECT_EQ(grid->sampler_bytes(),
+              cells * sizeof(detail::BrickCell) + bricks * 729 * sizeof(float));
+}
+
 TEST_F(DensityGridTest, BadVoxelsAreCountedAndZeroed) {
     const float nan = std::numeric_limits<float>::quiet_NaN();
     const float inf = std::numeric_limits<float>::infinity();
