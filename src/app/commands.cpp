@@ -21,6 +21,7 @@
 #include "render/report.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
+#include "scene/vdb_scene.h"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -279,7 +280,11 @@ RenderJob prepare_render(const RenderArgs& args) {
         reference = read_exr(args.reference);
         check_finite(reference, args.reference);
     }
-    const SceneDesc desc = load_scene_desc(args.scene, args.overrides);
+    if (is_vdb_path(args.scene) && !sequence && has_frame_pattern(args.scene))
+        throw InputError(
+            args.scene, "",
+            "holds a frame pattern; expected --frames FIRST-LAST to render its frames");
+    const SceneDesc desc = load_scene_desc(args.scene, args.overrides, first);
     if (!args.reference.empty() &&
         (reference.width != desc.camera.width || reference.height != desc.camera.height))
         throw InputError(args.reference, "",
@@ -374,10 +379,42 @@ void agree_on_job(const RenderArgs& args, const RenderJob& job) {
 
 }  // namespace
 
+/// --write-scene: the scene as `render` would read it (a VDB's made scene, --set applied), its
+/// files' paths relative to the written file's folder; checked as a render checks it first.
+int write_scene_file(const RenderArgs& args) {
+    const int frame = args.frames.empty() ? 0 : parse_frame_range(args.frames, "--frames").first;
+    nlohmann::json doc = scene_document(args.scene, args.overrides, frame);
+    load_scene_desc(args.scene, args.overrides,
+                    frame);  // a scene that would not load is not written
+    check_not_an_input(args.write_scene, "--write-scene", {{args.scene, "scene file"}});
+    check_output_path(args.write_scene, "--write-scene");
+    const fs::path from = fs::absolute(args.scene).parent_path(),
+                   to = fs::absolute(args.write_scene).parent_path();
+    for (const char* list : {"media", "shapes"}) {
+        if (!doc.contains(list) || !doc[list].is_array()) continue;
+        for (nlohmann::json& item : doc[list])
+            if (item.is_object() && item.contains("file") && item["file"].is_string())
+                item["file"] = (from / item["file"].get<std::string>())
+                                   .lexically_normal()
+                                   .lexically_relative(to)
+                                   .string();
+    }
+    OutputFiles out;
+    write_staged_text(out.stage(args.write_scene), doc.dump(2) + "\n", "scene file");
+    out.commit();
+    if (!args.quiet) std::cout << "wrote: " << args.write_scene << "\n";
+    return 0;
+}
+
 int run_render(const RenderArgs& args) {
+    if (!args.write_scene.empty()) return write_scene_file(args);
     RenderJob job;
     agree_on_input(args.ranks, [&] { job = prepare_render(args); });
     agree_on_job(args, job);
+    if (is_vdb_path(args.scene) && (!args.ranks || args.ranks->rank() == 0))
+        for (const std::string& w :
+             unused_grid_warnings(args.scene, job.range ? job.range->first : 0))
+            std::fprintf(stderr, "fogmap: warning: %s\n", w.c_str());
     const std::string &exr = job.exr, &png = job.png;
     const std::optional<FrameRange>& range = job.range;
     const Image& reference = job.reference;
@@ -479,15 +516,22 @@ int run_render(const RenderArgs& args) {
 
 int run_info(const std::string& vdb_path, bool json) {
     const std::vector<GridInfo> grids = inspect_vdb(vdb_path);
+    const std::vector<std::string> uses = grid_uses(grids);
     if (json) {
         nlohmann::json j = {{"file", vdb_path}, {"grids", nlohmann::json::array()}};
-        for (const GridInfo& g : grids) j["grids"].push_back(grid_info_json(g));
+        for (size_t i = 0; i < grids.size(); ++i) {
+            j["grids"].push_back(grid_info_json(grids[i]));
+            j["grids"].back()["use"] = uses[i];
+        }
         std::cout << j.dump(2) << "\n";
         return 0;
     }
     std::cout << vdb_path << ": " << grids.size() << " grid(s)\n";
-    for (const GridInfo& g : grids) {
+    for (size_t i = 0; i < grids.size(); ++i) {
+        const GridInfo& g = grids[i];
         std::cout << "  " << g.name << ": " << g.value_type << ", class " << g.grid_class << "\n"
+                  << "    use in `fogmap render " << fs::path(vdb_path).filename().string()
+                  << "`: " << uses[i] << "\n"
                   << "    voxel size " << g.voxel_size.x << " " << g.voxel_size.y << " "
                   << g.voxel_size.z << ", translation " << g.translation.x << " " << g.translation.y
                   << " " << g.translation.z << "\n"

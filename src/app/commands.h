@@ -31,6 +31,7 @@ struct RenderArgs {
     std::string frames;   ///< --frames FIRST-LAST[:STEP]; "" = one image (core/frames.h)
     bool resume = false;  ///< skip frames whose EXR and PNG exist; continue from a checkpoint
     double checkpoint_every = 0.0;  ///< progressive: seconds between checkpoints; 0 = none
+    std::string write_scene;        ///< --write-scene: write the scene (with --set) here, no render
     Ranks* ranks = nullptr;         ///< under mpirun: this job's ranks (rank 0 prints and writes)
 };
 

@@ -77,7 +77,10 @@ int main(int argc, char** argv) {
     long long seed = 0;
     double time_budget = 0.0, alpha = 0.0, target_relmse = 0.0;
     CLI::App* r = app.add_subcommand("render", "render a scene file to EXR + PNG");
-    r->add_option("scene", render.scene, "scene JSON file")->required();
+    r->add_option("scene", render.scene, "scene JSON file, or a VDB cache (a scene made for it)")
+        ->required();
+    r->add_option("--write-scene", render.write_scene,
+                  "write the scene (a VDB's made scene, --set applied) to this JSON file and stop");
     r->add_option("-o,--output", render.output, "output .exr (default out/<scene>.exr)");
     r->add_option("--png", render.png, "PNG preview path (default beside the EXR)");
     r->add_option("--set", render.overrides, "override a setting, e.g. render.spp=64")->take_all();

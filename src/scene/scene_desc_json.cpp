@@ -4,6 +4,7 @@
 #include "core/hash.h"
 #include "core/input_file.h"
 #include "scene/json_reader.h"
+#include "scene/vdb_scene.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -626,10 +627,18 @@ json to_json(const SceneDesc& desc) {
     return j;
 }
 
-SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides) {
-    json doc =
-        parse_json_document(read_input_file(path, "", "scene file", kMaxSceneFileBytes), path);
+json scene_document(const std::string& path, const std::vector<std::string>& overrides, int frame) {
+    json doc = is_vdb_path(path)
+                   ? vdb_scene_json(path, frame)
+                   : parse_json_document(
+                         read_input_file(path, "", "scene file", kMaxSceneFileBytes), path);
     for (const auto& o : overrides) apply_override(doc, o, path);
+    return doc;
+}
+
+SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides,
+                          int frame) {
+    const json doc = scene_document(path, overrides, frame);
     try {
         SceneDesc desc = scene_desc_from_json(doc, path);
         validate(desc);

@@ -12,11 +12,18 @@
 
 namespace fogmap {
 
-/// Reads `path`, applies overrides ("render.spp=64", "lights.0.intensity=[1,2,3]": the value is
-/// JSON if it parses as JSON, else a string), converts and validates. The file's keys alone:
-/// render/run_setup.h resolves what runs.
-/// Throws InputError{path, field, reason}; JSON syntax errors give line and column.
-SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides = {});
+/// The scene file `path` as JSON with the overrides applied ("render.spp=64",
+/// "lights.0.intensity=[1,2,3]": the value is JSON if it parses as JSON, else a string). A VDB
+/// file (scene/vdb_scene.h, is_vdb_path) gives the scene made for it, from frame `frame` of a
+/// frame pattern. Throws InputError{path, field, reason}; JSON syntax errors give line and
+/// column.
+nlohmann::json scene_document(const std::string& path, const std::vector<std::string>& overrides,
+                              int frame = 0);
+
+/// scene_document, converted and validated. The file's keys alone: render/run_setup.h resolves
+/// what runs. Throws InputError{path, field, reason}.
+SceneDesc load_scene_desc(const std::string& path, const std::vector<std::string>& overrides = {},
+                          int frame = 0);
 
 /// Applies one "dotted.key=value" override to a JSON document (creating missing object keys).
 /// Throws InputError{file, "/dotted/key", reason} if the path goes through a non-object or an
