@@ -6,6 +6,7 @@
 #include "media/vdb_probe.h"
 
 #include <openvdb/openvdb.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <array>
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <mutex>
 #include <stdexcept>
+#include <vector>
 
 namespace fogmap {
 
@@ -192,27 +194,27 @@ float cloud_density(const Noise& noise, const Vec3& q) {
     return std::clamp(d, 0.0f, 1.0f);
 }
 
-}  // namespace
+/// The density (and the fireball's temperature) of the voxels with k in [k0, k1]: each voxel is
+/// a function of its index alone, so slabs are made apart, in parallel, and merged.
+struct Slab {
+    openvdb::FloatGrid::Ptr density = openvdb::FloatGrid::create(0.0f);
+    openvdb::FloatGrid::Ptr temperature = openvdb::FloatGrid::create(0.0f);
+};
 
-void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
-    init_openvdb();
+Slab make_slab(const VolumeGenSettings& settings, const Noise& noise, int k0, int k1) {
     const int res = std::max(settings.resolution, 8);
     const float inv_res = 1.0f / static_cast<float>(res);
-    // A sequence's frames: the noise rises by 0.15 units a frame (about a plume's eddy in 7).
-    const Noise noise(settings.seed, Vec3(0.0f, 0.15f * settings.time, 0.0f));
-    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
-    auto acc = grid->getAccessor();
     // Index ranges: the plume stands on voxel row y = 0 centred on x = z = 0; the cloud is
     // centred on the index origin. Translation 0 keeps those placements in world space.
     const int half = res / 2;
     const bool plume = settings.shape != VolumeShape::Cloud;  // the fireball stands like a plume
     const bool fire = settings.shape == VolumeShape::Fireball;
-    openvdb::FloatGrid::Ptr temperature = openvdb::FloatGrid::create(0.0f);
-    auto temperature_acc = temperature->getAccessor();
     const int y0 = plume ? 0 : -static_cast<int>(0.4f * res);
     const int y1 = plume ? res - 1 : -y0;
-    const int zh = plume ? half : static_cast<int>(0.4f * res);
-    for (int k = -zh; k <= zh; ++k) {
+    Slab slab;
+    auto acc = slab.density->getAccessor();
+    auto temperature_acc = slab.temperature->getAccessor();
+    for (int k = k0; k <= k1; ++k) {
         for (int j = y0; j <= y1; ++j) {
             for (int i = -half; i <= half; ++i) {
                 const Vec3 q =
@@ -229,6 +231,32 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
                 if (d >= kMinDensity) acc.setValue(openvdb::Coord(i, j, k), d);
             }
         }
+    }
+    return slab;
+}
+
+}  // namespace
+
+void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
+    init_openvdb();
+    const int res = std::max(settings.resolution, 8);
+    // A sequence's frames: the noise rises by 0.15 units a frame (about a plume's eddy in 7).
+    const Noise noise(settings.seed, Vec3(0.0f, 0.15f * settings.time, 0.0f));
+    const bool fire = settings.shape == VolumeShape::Fireball;
+    const int zh = settings.shape != VolumeShape::Cloud ? res / 2 : static_cast<int>(0.4f * res);
+    // Slabs of one leaf's depth (8 voxels along k, leaf-aligned), merged in k order: the grid
+    // is the same whatever the thread count.
+    const int first = -zh - ((-zh % 8) + 8) % 8, slabs = (zh - first) / 8 + 1;
+    std::vector<Slab> parts(static_cast<size_t>(slabs));
+    tbb::parallel_for(0, slabs, [&](int s) {
+        const int k0 = std::max(-zh, first + 8 * s), k1 = std::min(zh, first + 8 * s + 7);
+        parts[size_t(s)] = make_slab(settings, noise, k0, k1);
+    });
+    openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
+    openvdb::FloatGrid::Ptr temperature = openvdb::FloatGrid::create(0.0f);
+    for (Slab& part : parts) {  // disjoint leaves: the merge moves them
+        grid->tree().merge(part.density->tree());
+        temperature->tree().merge(part.temperature->tree());
     }
     grid->pruneGrid();
     grid->setName("density");

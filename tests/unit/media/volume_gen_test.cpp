@@ -4,6 +4,7 @@
 
 #include "media/volume_gen.h"
 
+#include "core/parallel.h"
 #include "media/density_grid.h"
 #include "test_support.h"
 
@@ -29,10 +30,10 @@ protected:
     test::TempDir tmp_{"fogmap_vg"};
 };
 
-openvdb::FloatGrid::Ptr read_density(const std::string& path) {
+openvdb::FloatGrid::Ptr read_density(const std::string& path, const std::string& name = "density") {
     openvdb::io::File f(path);
     f.open();
-    auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid("density"));
+    auto g = openvdb::gridPtrCast<openvdb::FloatGrid>(f.readGrid(name));
     f.close();
     return g;
 }
@@ -135,6 +136,33 @@ TEST_F(VolumeGenTest, SeedDeterminesGrid) {
     }
     EXPECT_EQ(same_b, n);
     EXPECT_GT(differ_c, n / 4);
+}
+
+TEST_F(VolumeGenTest, TheGridsAreTheSameOnOneThreadAndOnTwo) {
+    // The voxels are made in slabs of 8 along z on the run's threads and merged: a fireball
+    // (density and temperature) of 44 voxels, whose slabs do not start at its first row.
+    VolumeGenSettings s;
+    s.shape = VolumeShape::Fireball;
+    s.resolution = 44;
+    {
+        const ThreadLimit one(1);
+        generate_volume(s, path("one.vdb"));
+    }
+    {
+        const ThreadLimit two(2);
+        generate_volume(s, path("two.vdb"));
+    }
+    for (const char* name : {"density", "temperature"}) {
+        auto a = read_density(path("one.vdb"), name), b = read_density(path("two.vdb"), name);
+        ASSERT_TRUE(a && b) << name;
+        EXPECT_GT(a->activeVoxelCount(), 1000u) << name;
+        EXPECT_EQ(a->activeVoxelCount(), b->activeVoxelCount()) << name;
+        auto acc_b = b->getConstAccessor();
+        uint64_t same = 0, n = 0;
+        for (auto it = a->cbeginValueOn(); it; ++it, ++n)
+            same += acc_b.isValueOn(it.getCoord()) && acc_b.getValue(it.getCoord()) == *it;
+        EXPECT_EQ(same, n) << name;
+    }
 }
 
 TEST_F(VolumeGenTest, WriteFailureNamesPath) {

@@ -172,6 +172,44 @@ TEST(Report, JsonCarriesEveryField) {
     EXPECT_EQ(e["excludes"], "the bias");
 }
 
+TEST(Report, TheVolumeMapsBiasIsFlaggedOnlyWhenItsIntervalExcludesZero) {
+    // Three estimates of the bias²: measurable (its interval above 0), within its noise (the
+    // interval holds 0), below 0 (noise about a small bias: only its upper bound is said).
+    Report r;
+    ErrorReport& e = r.error;
+    e.valid = true;
+    e.rel_mse = 0.001;
+    e.lo = 0.0008;
+    e.hi = 0.0012;
+    e.batches = 8;
+    e.batched_by = "samples";
+    e.bias_valid = true;
+    const std::string flag = "error estimate: the map's bias is measurable";
+    e.bias2 = 0.000125, e.bias_lo = 0.0000625, e.bias_hi = 0.00025;
+    std::string t = report_text(r);
+    EXPECT_NE(t.find("of which the volume map's bias² 0.000125 [6.25e-05, 0.00025] (95%)"),
+              std::string::npos)
+        << t;
+    EXPECT_NE(t.find(flag), std::string::npos) << t;
+    nlohmann::json j = report_json(r)["error_estimate"]["bias2"];
+    EXPECT_EQ(j["value"], 0.000125);
+    EXPECT_EQ(j["lo"], 0.0000625);
+    EXPECT_EQ(j["hi"], 0.00025);
+    e.bias_lo = -0.0000625;
+    t = report_text(r);
+    EXPECT_NE(t.find("bias² 0.000125 [-6.25e-05, 0.00025]"), std::string::npos) << t;
+    EXPECT_EQ(t.find(flag), std::string::npos) << t;
+    e.bias2 = -0.000125;
+    t = report_text(r);
+    EXPECT_NE(t.find("bias²: too small to measure here (95% upper bound 0.00025)"),
+              std::string::npos)
+        << t;
+    EXPECT_EQ(t.find(flag), std::string::npos) << t;
+    e.bias_valid = false;
+    EXPECT_TRUE(report_json(r)["error_estimate"]["bias2"].is_null());
+    EXPECT_EQ(report_text(r).find("bias²"), std::string::npos);
+}
+
 TEST(Report, JsonOfAnEmptyReportHasNoReferenceAndZeroRates) {
     const nlohmann::json j = report_json(Report{});
     EXPECT_TRUE(j["reference"].is_null());
