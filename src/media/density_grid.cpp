@@ -335,14 +335,17 @@ std::vector<std::string> vdb_grid_names(const std::string& path, const std::stri
     return names;
 }
 
-std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
-                                               const std::string& grid_name,
-                                               const std::string& field) {
+namespace {
+
+/// Reads grid `grid_name` of `path` (checked, probed), its affine index-to-world in *to_world,
+/// after checking its transform and its voxel count against the file's metadata.
+openvdb::GridBase::Ptr read_grid(const std::string& path, const std::string& grid_name,
+                                 const std::string& field, DMat4* to_world) {
     init_openvdb();
     check_vdb_file(path, field);
     check_before_reading(path, field, grid_name);
     probe_vdb(path, field);  // OpenVDB 10.0 can crash on a corrupt file: read it in a child first
-    FloatGrid::Ptr grid;
+    openvdb::GridBase::Ptr base;
     DMat4 index_to_world(1.0);
     try {
         openvdb::io::File file(path);
@@ -353,21 +356,15 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
             throw InputError(path, field,
                              "no grid '" + grid_name + "'; grids present: " + join(names));
         }
-        openvdb::GridBase::Ptr base = file.readGrid(grid_name);
+        base = file.readGrid(grid_name);
         file.close();
-        grid = openvdb::gridPtrCast<FloatGrid>(base);
-        if (!grid) {
+        if (!base->transform().isLinear()) {
             throw InputError(path, field,
-                             "grid '" + grid_name + "' has type " + base->valueType() +
-                                 "; expected a float grid");
-        }
-        if (!grid->transform().isLinear()) {
-            throw InputError(path, field,
-                             "grid '" + grid_name + "' has a " + grid->transform().mapType() +
+                             "grid '" + grid_name + "' has a " + base->transform().mapType() +
                                  " transform; expected an affine (linear) one");
         }
         // Throws ArithmeticError for a singular map (a bit flip in the file's transform).
-        index_to_world = to_glm(grid->transform().baseMap()->getAffineMap()->getMat4());
+        index_to_world = to_glm(base->transform().baseMap()->getAffineMap()->getMat4());
     } catch (const InputError&) {
         throw;
     } catch (const std::exception& e) {
@@ -379,8 +376,8 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                          "grid '" + grid_name + "': its index-to-world transform " + problem);
     // A grid cut short or with a damaged node reads as fewer voxels than OpenVDB counted when it
     // wrote the file (the stats metadata io::File adds).
-    if (const auto written = grid->getMetadata<openvdb::Int64Metadata>("file_voxel_count")) {
-        const openvdb::Index64 read = grid->activeVoxelCount();
+    if (const auto written = base->getMetadata<openvdb::Int64Metadata>("file_voxel_count")) {
+        const openvdb::Index64 read = base->activeVoxelCount();
         if (written->value() != static_cast<int64_t>(read))
             throw InputError(path, field,
                              "corrupt VDB file: grid '" + grid_name + "' has " +
@@ -389,10 +386,72 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                  "(file_voxel_count) says " +
                                  std::to_string(written->value()));
     }
+    *to_world = index_to_world;
+    return base;
+}
 
+}  // namespace
+
+/// DensityGrid's friend: the grid of an OpenVDB tree (sanitized, then made into majorants and
+/// bricks), for load and load_channels.
+struct GridBuilder {
+    static std::unique_ptr<DensityGrid> build(FloatTree& tree, const DMat4& index_to_world,
+                                              const std::string& path, const std::string& field,
+                                              const std::string& grid_name);
+};
+
+std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
+                                               const std::string& grid_name,
+                                               const std::string& field) {
+    DMat4 index_to_world(1.0);
+    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, &index_to_world);
+    const FloatGrid::Ptr grid = openvdb::gridPtrCast<FloatGrid>(base);
+    if (!grid)
+        throw InputError(
+            path, field,
+            "grid '" + grid_name + "' has type " + base->valueType() + "; expected a float grid");
+    return GridBuilder::build(grid->tree(), index_to_world, path, field, grid_name);
+}
+
+std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std::string& path,
+                                                                       const std::string& grid_name,
+                                                                       const std::string& field,
+                                                                       uint64_t* clamped) {
+    DMat4 index_to_world(1.0);
+    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, &index_to_world);
+    const openvdb::Vec3SGrid::Ptr grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
+    if (!grid)
+        throw InputError(path, field,
+                         "grid '" + grid_name + "' has type " + base->valueType() +
+                             "; expected a vec3s grid (a colour per voxel)");
+    // Each channel its own float tree, values clamped to [0, 1] (voxels and tiles alike).
+    std::array<FloatTree, 3> trees{FloatTree(0.0f), FloatTree(0.0f), FloatTree(0.0f)};
+    *clamped = 0;
+    for (auto it = grid->tree().cbeginValueOn(); it; ++it) {
+        const openvdb::Vec3s v = *it;
+        for (int c = 0; c < 3; ++c) {
+            const float x = std::isfinite(v[c]) ? std::clamp(v[c], 0.0f, 1.0f) : 0.0f;
+            *clamped += x != v[c] ? (it.isVoxelValue() ? 1 : it.getVoxelCount()) : 0;
+            if (it.isVoxelValue())
+                trees[c].setValueOn(it.getCoord(), x);
+            else
+                trees[c].addTile(it.getLevel(), it.getCoord(), x, true);
+        }
+    }
+    std::array<std::unique_ptr<DensityGrid>, 3> out;
+    for (int c = 0; c < 3; ++c) {
+        out[c] = GridBuilder::build(trees[c], index_to_world, path, field,
+                                    grid_name + "[" + std::to_string(c) + "]");
+        out[c]->warnings_.clear();  // a channel's "no density" is not the medium's
+    }
+    return out;
+}
+
+std::unique_ptr<DensityGrid> GridBuilder::build(FloatTree& tree, const DMat4& index_to_world,
+                                                const std::string& path, const std::string& field,
+                                                const std::string& grid_name) {
     std::unique_ptr<DensityGrid> out(new DensityGrid());
     out->name_ = grid_name;
-    FloatTree& tree = grid->tree();
     const float background = tree.background();
     if (background != 0.0f) {
         char text[400];

@@ -96,6 +96,13 @@ public:
     /// grid not float (message names its type).
     static std::unique_ptr<DensityGrid> load(const std::string& path, const std::string& grid_name,
                                              const std::string& field);
+    /// Reads vec3s grid `grid_name` (a colour per voxel) as one grid per channel, its values
+    /// clamped to [0, 1] (*clamped: how many channel values were, voxels of tiles counted);
+    /// sampled as density grids are. Throws InputError as load, or when the grid is not vec3s.
+    static std::array<std::unique_ptr<DensityGrid>, 3> load_channels(const std::string& path,
+                                                                     const std::string& grid_name,
+                                                                     const std::string& field,
+                                                                     uint64_t* clamped);
     ~DensityGrid();
     DensityGrid(const DensityGrid&) = delete;
     DensityGrid& operator=(const DensityGrid&) = delete;
@@ -145,6 +152,7 @@ public:
 
 private:
     DensityGrid() = default;
+    friend struct GridBuilder;  ///< density_grid.cpp: a grid from an OpenVDB tree
     detail::Bricks bricks_;
     DMat4 index_to_world_{1.0};
     Box3 index_bounds_;

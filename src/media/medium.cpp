@@ -176,6 +176,21 @@ Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
     if (medium.grid_) grid_sampler_.emplace(*medium.grid_);
     if (medium.emission_ && medium.emission_->grid())
         emission_sampler_.emplace(*medium.emission_->grid());
+    for (size_t c = 0; c < 3 && medium.colour_[c]; ++c)
+        colour_sampler_[c].emplace(*medium.colour_[c]);
+}
+
+Color Medium::Sampler::coloured_sigma_s(const Vec3& p_world) {
+    const Vec3 q = transform_point(medium_->world_to_colour_index_, p_world);
+    const Color colour(colour_sampler_[0]->density(q), colour_sampler_[1]->density(q),
+                       colour_sampler_[2]->density(q));
+    return medium_->params_.sigma_s * colour;
+}
+
+void Medium::set_colour(std::array<std::shared_ptr<const DensityGrid>, 3> channels,
+                        const Mat4& scene_transform) {
+    colour_ = std::move(channels);
+    world_to_colour_index_ = glm::inverse(scene_transform * to_float(colour_[0]->index_to_world()));
 }
 
 float Medium::Sampler::density(const Vec3& p_world) {
@@ -361,11 +376,12 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
         if (i < 0) return {};
         const float t = t_next[i];
         const MediumParams& p = media[i].medium().params();
-        const float d = media[i].density(ray.at(t));
-        const Color sigma_s = d * p.sigma_s, sigma_a = d * p.sigma_a;
+        const Vec3 x = ray.at(t);
+        const float d = media[i].density(x);
+        const Color sigma_s = d * media[i].sigma_s_unit(x), sigma_a = d * media[i].sigma_a_unit(x);
         const float m = mu[i];
         if (emitted && d > 0.0f && media[i].medium().emission())
-            *emitted += *beta * sigma_a * media[i].emission(ray.at(t)) / m;
+            *emitted += *beta * (d * p.sigma_a) * media[i].emission(x) / m;
         const float u = rng.uniform();
         float p_null;
         if (collision == Collision::Analog) {
@@ -412,7 +428,7 @@ InscatterPick ratio_track_pick(std::vector<Medium::Sampler>& media, const Ray& r
         if (d > 0.0f) {
             if (emitted && media[i].medium().emission())
                 *emitted += T * d * p.sigma_a * media[i].emission(ray.at(t)) / m;
-            const Color a = T * d * p.sigma_s / m;
+            const Color a = T * d * media[i].sigma_s_unit(ray.at(t)) / m;
             const float wa = average(a);
             if (wa > 0.0f) {
                 sum += wa;
@@ -471,7 +487,7 @@ Color ratio_track(std::vector<Medium::Sampler>& media, const Ray& ray, float t_m
 
 Color sigma_s_at(std::vector<Medium::Sampler>& media, const Vec3& p) {
     Color s(0.0f);
-    for (Medium::Sampler& m : media) s += m.density(p) * m.medium().params().sigma_s;
+    for (Medium::Sampler& m : media) s += m.density(p) * m.sigma_s_unit(p);
     return s;
 }
 

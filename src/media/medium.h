@@ -8,6 +8,9 @@
 // it, so homogeneous media and uniform cells add no variance. Several media superpose: their
 // majorant processes are walked side by side and the nearest tentative collision is processed
 // (Poisson superposition). Rays must have unit world-space direction; t is world distance.
+// A grid medium may carry a colour grid C (Houdini's Cd, Blender's color): the scattering's albedo
+// per channel, σ_s(x) = density·sigma_s·C(x) and σ_a(x) = density·(sigma_a + sigma_s·(1 − C(x))),
+// so σ_t, and with it every majorant and transmittance, is the colourless medium's.
 // A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling
 // draws points ∝ that source for photons (tables over majorant cells and then voxel cells,
 // rejection within a voxel cell).
@@ -51,6 +54,12 @@ public:
     /// Smallest world-space voxel edge of a grid medium; 0 for a homogeneous one.
     float voxel_world() const { return voxel_world_; }
 
+    /// Colours the medium's scattering by `channels` (DensityGrid::load_channels), placed by
+    /// scene_transform * their grid's own index_to_world. Load time only.
+    void set_colour(std::array<std::shared_ptr<const DensityGrid>, 3> channels,
+                    const Mat4& scene_transform);
+    bool coloured() const { return colour_[0] != nullptr; }
+
     /// Makes the medium emit; a grid emission is placed by scene_transform * its grid's own
     /// index_to_world (the density's scene transform). Load time only.
     void set_emission(Emission emission, const Mat4& scene_transform);
@@ -73,6 +82,17 @@ public:
         float density(const Vec3& p_world);
         /// L_e at a world point (0 outside the emission grid or when the medium does not emit).
         Color emission(const Vec3& p_world);
+        /// σ_s per unit density at a world point: sigma_s, times the colour there when the
+        /// medium has one (then 0 outside the colour grid).
+        Color sigma_s_unit(const Vec3& p_world) {
+            return colour_sampler_[0] ? coloured_sigma_s(p_world) : medium_->params_.sigma_s;
+        }
+        /// σ_a per unit density at a world point: sigma_a, plus the scattering the colour takes.
+        Color sigma_a_unit(const Vec3& p_world) {
+            const MediumParams& p = medium_->params_;
+            return colour_sampler_[0] ? p.sigma_a + (p.sigma_s - coloured_sigma_s(p_world))
+                                      : p.sigma_a;
+        }
         /// One attempt at a point ∝ average(σ_a L_e): a majorant cell, then a voxel-sized unit
         /// cell in it (corners at voxel centres), each ∝ its bound × volume, a uniform point in
         /// that, kept with probability average(σ_a L_e)(x) / the unit's bound. Unit bounds are
@@ -120,6 +140,8 @@ public:
         const Medium* medium_;
         std::optional<DensityGrid::Sampler> grid_sampler_;
         std::optional<DensityGrid::Sampler> emission_sampler_;
+        std::array<std::optional<DensityGrid::Sampler>, 3> colour_sampler_;
+        Color coloured_sigma_s(const Vec3& p_world);
         // Walk state (index space for grids; t shared with world space). Distances are double:
         // in stiff media a step 1/σ_maj (1e-9 at density scale 1e9) is below a float's
         // resolution of t, and a float walk would stop advancing (a hang in empty space).
@@ -148,6 +170,8 @@ private:
     float voxel_world_ = 0.0f;
     std::optional<Emission> emission_;
     Mat4 world_to_emission_index_{1.0f};
+    std::array<std::shared_ptr<const DensityGrid>, 3> colour_;
+    Mat4 world_to_colour_index_{1.0f};
     /// Emission sampling, two levels: majorant cells (index into the majorant grid; 0 for a
     /// homogeneous medium's box) with the cumulative Σ bound × volume of their units; units
     /// [emission_cell_begin_[c], emission_cell_begin_[c + 1]) of cell c: local index (x + 8y +

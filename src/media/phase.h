@@ -40,7 +40,7 @@ public:
             return;
         }
         for (Medium::Sampler& s : samplers) {
-            const float w = s.density(x) * average(s.medium().params().sigma_s);
+            const float w = s.density(x) * average(s.sigma_s_unit(x));
             if (!(w > 0.0f)) continue;
             g_[n_] = s.medium().params().g;
             w_[n_++] = w;

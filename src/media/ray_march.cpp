@@ -13,7 +13,7 @@ void sigma_at(std::vector<Medium::Sampler>& samplers, const Vec3& x, Color* sigm
     for (Medium::Sampler& sampler : samplers) {
         const float d = sampler.density(x);
         if (d <= 0.0f) continue;
-        *sigma_s += d * sampler.medium().params().sigma_s;
+        *sigma_s += d * sampler.sigma_s_unit(x);
         *sigma_t += d * sampler.medium().sigma_t();
     }
 }
@@ -111,7 +111,7 @@ void delta_free_path(std::vector<Medium::Sampler>& samplers, const std::vector<M
             fp->t = t;
             fp->x = x;
             fp->weight *= sigma_t / (m * p);
-            fp->sigma_s = d * samplers[i].medium().params().sigma_s;
+            fp->sigma_s = d * samplers[i].sigma_s_unit(x);
             fp->sigma_t = sigma_t;
             return;
         }

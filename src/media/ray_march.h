@@ -142,7 +142,7 @@ void RayMarcher::march(std::vector<Medium::Sampler>& samplers, const Ray& ray, f
                 const float d = sampler.density(s.x);
                 if (d <= 0.0f) continue;
                 const Medium& m = sampler.medium();
-                s.sigma_s += d * m.params().sigma_s;
+                s.sigma_s += d * sampler.sigma_s_unit(s.x);
                 s.sigma_t += d * m.sigma_t();
                 if (m.emission()) s.emission += d * m.params().sigma_a * sampler.emission(s.x);
             }

@@ -119,6 +119,21 @@ std::shared_ptr<const DensityGrid> cached_grid(GridCache* grids, const std::stri
     return g;
 }
 
+/// Medium i's colour grid (its color_grid), values above 1 clamped and said.
+void attach_colour(const SceneDesc& desc, size_t i, const std::string& path, Medium* medium,
+                   std::vector<std::string>* warnings) {
+    const MediumDesc& m = desc.media[i];
+    const std::string field = "/media/" + std::to_string(i) + "/color_grid";
+    uint64_t clamped = 0;
+    auto channels = DensityGrid::load_channels(path, m.color_grid, field, &clamped);
+    medium->set_colour({std::move(channels[0]), std::move(channels[1]), std::move(channels[2])},
+                       m.transform.matrix);
+    if (clamped > 0)
+        warnings->push_back(path + ": grid '" + m.color_grid + "': " + std::to_string(clamped) +
+                            " channel values outside 0 .. 1 clamped (a colour above 1 would "
+                            "scatter more light than reaches it)");
+}
+
 constexpr std::array<const char*, 4> kEmissionGridNames{"temperature", "heat", "flame", "flames"};
 
 /// The first of kEmissionGridNames that `names` holds, or "".
@@ -314,6 +329,8 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         const std::shared_ptr<const DensityGrid> grid =
             cached_grid(&grids, path, m.grid, "/media/" + std::to_string(i), &scene->warnings);
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
+        if (!m.color_grid.empty())
+            attach_colour(desc, i, path, &scene->media.back(), &scene->warnings);
         if (m.emission) {
             emitters[i] =
                 attach_emission(desc, i, path, &grids, &scene->media.back(), &scene->warnings);

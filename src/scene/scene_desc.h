@@ -89,6 +89,7 @@ struct MediumDesc {
     MediumType type = MediumType::Vdb;
     std::string file;              ///< vdb: path relative to the scene file
     std::string grid = "density";  ///< vdb: name of a float grid
+    std::string color_grid;        ///< vdb: a vec3s grid, the scattering's albedo per channel
     TransformDesc transform;       ///< vdb: scene transform applied after the grid's own
     float density_scale = 1.0f;    ///< multiplies the grid values (>= 0)
     Color sigma_s{1.0f};           ///< scattering coefficient per unit density, 1/world unit

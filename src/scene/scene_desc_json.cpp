@@ -136,6 +136,7 @@ void medium_fields(M& m, V& v) {
         case MediumType::Vdb:
             v.value("file", m.file);
             v.value("grid", m.grid);
+            v.value("color_grid", m.color_grid);
             v.transform("transform", m.transform);
             break;
         case MediumType::Homogeneous:

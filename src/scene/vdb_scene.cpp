@@ -40,7 +40,7 @@ double num(double v) {
 nlohmann::json point(const Vec3& p) { return {num(p.x), num(p.y), num(p.z)}; }
 
 // Houdini and Blender names: density; temperature (Houdini's pyro: not in kelvin), flame and
-// heat (Blender), flames; Cd and color (colour); vel, velocity and v (and their .x/.y/.z).
+// heat (Blender), flames; Cd and color (colour, vec3s); vel, velocity and v (and their .x/.y/.z).
 const GridInfo* density_grid(const std::vector<GridInfo>& grids) {
     for (const GridInfo& g : grids)
         if (is_float(g) && named(g, {"density"})) return &g;
@@ -48,6 +48,12 @@ const GridInfo* density_grid(const std::vector<GridInfo>& grids) {
         if (is_float(g) && g.grid_class == "fog volume" &&
             !named(g, {"temperature", "flame", "flames", "heat"}))
             return &g;
+    return nullptr;
+}
+
+const GridInfo* colour_grid(const std::vector<GridInfo>& grids) {
+    for (const GridInfo& g : grids)
+        if (g.value_type == "vec3s" && named(g, {"cd", "color", "colour"})) return &g;
     return nullptr;
 }
 
@@ -90,7 +96,7 @@ nlohmann::json emission_json(const GridInfo& g) {
 // look like smoke, whatever the cache's units (users set media.0.density_scale to taste).
 constexpr double kDepthAcross = 10.0;
 
-nlohmann::json medium_json(const std::string& file, const GridInfo& density,
+nlohmann::json medium_json(const std::string& file, const GridInfo& density, const GridInfo* colour,
                            const GridInfo* emission) {
     const Vec3 e = density.world_bounds.hi - density.world_bounds.lo;
     const double across = std::cbrt(std::max(double(e.x) * e.y * e.z, 1e-30));
@@ -102,6 +108,7 @@ nlohmann::json medium_json(const std::string& file, const GridInfo& density,
                         {"sigma_s", 0.93},
                         {"sigma_a", 0.07},
                         {"g", 0.3}};
+    if (colour) m["color_grid"] = colour->name;
     if (emission) m["emission"] = emission_json(*emission);
     return m;
 }
@@ -151,6 +158,7 @@ bool is_vdb_path(const std::string& path) {
 std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
     const GridInfo* density = density_grid(grids);
     const GridInfo* emission = emission_grid(grids);
+    const GridInfo* colour = colour_grid(grids);
     std::vector<std::string> uses;
     for (const GridInfo& g : grids) {
         const std::string base = lower(g.name.substr(0, g.name.find('.')));
@@ -158,8 +166,10 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
             uses.push_back("density (the medium)");
         else if (&g == emission)
             uses.push_back(emission_use(g));
+        else if (&g == colour)
+            uses.push_back("colour (the scattering's albedo per channel)");
         else if (base == "cd" || base == "color" || base == "colour")
-            uses.push_back("not used: colour grids are not supported yet");
+            uses.push_back("not used: a colour grid is read from a vec3s grid");
         else if (base == "vel" || base == "velocity" || base == "v")
             uses.push_back("not used: velocity motion blur is not supported yet");
         else
@@ -191,22 +201,23 @@ nlohmann::json vdb_scene_json(const std::string& file, int frame) {
     const Box3& b = density->world_bounds;
     const Vec3 c = 0.5f * (b.lo + b.hi);
     const float half = 50.0f * glm::length(b.hi - b.lo);
-    nlohmann::json scene = {{"camera", camera_json(b)},
-                            {"lights",
-                             {{{"type", "sun"},
-                               {"direction", {-0.55, -0.75, -0.35}},
-                               {"irradiance", {3.2, 3.0, 2.7}},
-                               {"angular_radius_deg", 0.27}},
-                              {{"type", "environment"}, {"radiance", {0.16, 0.2, 0.28}}}}},
-                            {"materials", {{"ground", {{"type", "diffuse"}, {"albedo", 0.5}}}}},
-                            {"shapes",
-                             {{{"type", "quad"},
-                               {"corner", point(Vec3(c.x - half, b.lo.y, c.z - half))},
-                               {"edge_u", {0, 0, num(2.0f * half)}},
-                               {"edge_v", {num(2.0f * half), 0, 0}},
-                               {"material", "ground"}}}},
-                            {"media", {medium_json(file, *density, emission_grid(grids))}},
-                            {"render", {{"spp", 16}}}};
+    nlohmann::json scene = {
+        {"camera", camera_json(b)},
+        {"lights",
+         {{{"type", "sun"},
+           {"direction", {-0.55, -0.75, -0.35}},
+           {"irradiance", {3.2, 3.0, 2.7}},
+           {"angular_radius_deg", 0.27}},
+          {{"type", "environment"}, {"radiance", {0.16, 0.2, 0.28}}}}},
+        {"materials", {{"ground", {{"type", "diffuse"}, {"albedo", 0.5}}}}},
+        {"shapes",
+         {{{"type", "quad"},
+           {"corner", point(Vec3(c.x - half, b.lo.y, c.z - half))},
+           {"edge_u", {0, 0, num(2.0f * half)}},
+           {"edge_v", {num(2.0f * half), 0, 0}},
+           {"material", "ground"}}}},
+        {"media", {medium_json(file, *density, colour_grid(grids), emission_grid(grids))}},
+        {"render", {{"spp", 16}}}};
     return scene;
 }
 

@@ -17,12 +17,12 @@ namespace fogmap {
 /// A scene file's path that is a VDB cache rather than JSON (by its extension).
 bool is_vdb_path(const std::string& path);
 
-/// What vdb_scene_json does with each grid of a file, in file order ("density", "emission
-/// (blackbody, kelvin)", "not used: velocity (motion blur is not supported)", ...).
+/// What vdb_scene_json does with each grid of a file, in file order ("density (the medium)",
+/// "emission (blackbody, in kelvin)", "colour (...)", "not used: velocity motion blur ...").
 std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids);
 
-/// The grids of frame `frame` of the VDB file `file` that the made scene does not use (a colour
-/// or velocity grid), each as a warning's text: "FILE: grid 'Cd': not used: ...".
+/// The grids of frame `frame` of the VDB file `file` that the made scene does not use (a
+/// velocity grid, say), each as a warning's text: "FILE: grid 'vel': not used: ...".
 std::vector<std::string> unused_grid_warnings(const std::string& file, int frame);
 
 /// The scene, as a scene file's JSON, for the VDB file `file` (which may hold a frame pattern:
