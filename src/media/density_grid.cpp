@@ -424,20 +424,28 @@ std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std
         throw InputError(path, field,
                          "grid '" + grid_name + "' has type " + base->valueType() +
                              "; expected a vec3s grid (a colour per voxel)");
-    // Each channel its own float tree, values clamped to [0, 1] (voxels and tiles alike).
+    // Each channel its own float tree, values above 1 clamped (voxels and tiles alike); a value
+    // below 0 or not finite is no colour: the file is wrong.
     std::array<FloatTree, 3> trees{FloatTree(0.0f), FloatTree(0.0f), FloatTree(0.0f)};
     *clamped = 0;
+    uint64_t bad = 0;
     for (auto it = grid->tree().cbeginValueOn(); it; ++it) {
         const openvdb::Vec3s v = *it;
         for (int c = 0; c < 3; ++c) {
+            const uint64_t voxels = it.isVoxelValue() ? 1 : it.getVoxelCount();
+            bad += !(v[c] >= 0.0f) || !std::isfinite(v[c]) ? voxels : 0;
             const float x = std::isfinite(v[c]) ? std::clamp(v[c], 0.0f, 1.0f) : 0.0f;
-            *clamped += x != v[c] ? (it.isVoxelValue() ? 1 : it.getVoxelCount()) : 0;
+            *clamped += v[c] > 1.0f ? voxels : 0;
             if (it.isVoxelValue())
                 trees[c].setValueOn(it.getCoord(), x);
             else
                 trees[c].addTile(it.getLevel(), it.getCoord(), x, true);
         }
     }
+    if (bad > 0)
+        throw InputError(path, field,
+                         "grid '" + grid_name + "' has " + std::to_string(bad) +
+                             " channel values below 0 or not finite; expected colours in 0 .. 1");
     std::array<std::unique_ptr<DensityGrid>, 3> out;
     for (int c = 0; c < 3; ++c) {
         out[c] = GridBuilder::build(trees[c], index_to_world, path, field,

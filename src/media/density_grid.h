@@ -96,9 +96,10 @@ public:
     /// grid not float (message names its type).
     static std::unique_ptr<DensityGrid> load(const std::string& path, const std::string& grid_name,
                                              const std::string& field);
-    /// Reads vec3s grid `grid_name` (a colour per voxel) as one grid per channel, its values
-    /// clamped to [0, 1] (*clamped: how many channel values were, voxels of tiles counted);
-    /// sampled as density grids are. Throws InputError as load, or when the grid is not vec3s.
+    /// Reads vec3s grid `grid_name` (a colour per voxel) as one grid per channel, values above 1
+    /// clamped to 1 (*clamped: how many channel values were, voxels of tiles counted); sampled
+    /// as density grids are. Throws InputError as load, when the grid is not vec3s, or when a
+    /// value is below 0 or not finite.
     static std::array<std::unique_ptr<DensityGrid>, 3> load_channels(const std::string& path,
                                                                      const std::string& grid_name,
                                                                      const std::string& field,

@@ -130,7 +130,7 @@ void attach_colour(const SceneDesc& desc, size_t i, const std::string& path, Med
                        m.transform.matrix);
     if (clamped > 0)
         warnings->push_back(path + ": grid '" + m.color_grid + "': " + std::to_string(clamped) +
-                            " channel values outside 0 .. 1 clamped (a colour above 1 would "
+                            " channel values above 1 clamped to 1 (a colour above 1 would "
                             "scatter more light than reaches it)");
 }
 

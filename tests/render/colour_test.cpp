@@ -5,7 +5,9 @@
 // own voxel size and offset colours the scattering by world position (red on one side, blue on
 // the other).
 
+#include "core/error.h"
 #include "render/pipeline.h"
+#include "scene/scene.h"
 #include "scene/scene_desc.h"
 #include "scene_builders.h"
 #include "test_support.h"
@@ -14,6 +16,7 @@
 #include <openvdb/openvdb.h>
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace fogmap {
@@ -132,6 +135,48 @@ TEST(ColourGrid, ColoursTheScatteringByWorldPositionThroughItsOwnTransform) {
     EXPECT_GT(right.z, 0.0f);
     EXPECT_EQ(right.x, 0.0f);
     EXPECT_EQ(right.y, 0.0f);
+}
+
+TEST(ColourGrid, AColourOfTheWrongTypeBelowZeroOrNotFiniteIsAnErrorAndAboveOneIsClamped) {
+    openvdb::initialize();
+    const TempDir dir("colour_bad");
+    const std::string file = (dir.path() / "bad.vdb").string();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    auto wrong_type = openvdb::FloatGrid::create(0.0f);
+    wrong_type->setName("Cf");
+    wrong_type->tree().setValue(openvdb::Coord(0), 1.0f);
+    auto negative = colour_grid(openvdb::Vec3s(1.0f, -0.5f, 1.0f), openvdb::Vec3s(1.0f));
+    negative->setName("Cneg");
+    auto not_finite = colour_grid(openvdb::Vec3s(nan, 1.0f, 1.0f), openvdb::Vec3s(1.0f));
+    not_finite->setName("Cnan");
+    auto bright = colour_grid(openvdb::Vec3s(2.0f, 1.0f, 1.0f), openvdb::Vec3s(1.0f));
+    bright->setName("Cbright");
+    openvdb::io::File(file).write({density_block(), wrong_type, negative, not_finite, bright});
+    const auto error_of = [&](const std::string& grid) -> std::string {
+        SceneDesc d = block_scene(file, "path", 3);
+        d.media[0].color_grid = grid;
+        try {
+            load_scene(d);
+        } catch (const InputError& e) {
+            EXPECT_EQ(e.field, "/media/0/color_grid") << grid;
+            return e.reason;
+        }
+        return "";
+    };
+    EXPECT_NE(error_of("Cf").find("has type float; expected a vec3s grid"), std::string::npos);
+    // colour_grid's left half (x < 0): 8 of its 17 columns of 17 x 17 voxels.
+    const std::string half = std::to_string(8 * 17 * 17);
+    EXPECT_NE(error_of("Cneg").find("has " + half + " channel values below 0 or not finite"),
+              std::string::npos);
+    EXPECT_NE(error_of("Cnan").find("has " + half + " channel values below 0 or not finite"),
+              std::string::npos);
+    SceneDesc d = block_scene(file, "path", 3);
+    d.media[0].color_grid = "Cbright";
+    const auto scene = load_scene(d);
+    ASSERT_EQ(scene->warnings.size(), 1u);
+    EXPECT_NE(scene->warnings[0].find(half + " channel values above 1 clamped to 1"),
+              std::string::npos)
+        << scene->warnings[0];
 }
 
 }  // namespace
