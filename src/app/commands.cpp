@@ -82,7 +82,7 @@ std::string cap_threads(SceneDesc* desc) {
     return text;
 }
 
-void check_run_memory(const RunSetup& setup, bool with_reference) {
+RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const SceneDesc& desc = setup.run;
     const double pixels = double(desc.camera.width) * desc.camera.height;
     const bool photon = setup.photon();
@@ -106,18 +106,24 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     const double maps = photon ? 20.0 * (double(p.global) + p.caustic + p.volume) +
                                      per_volume_photon * double(p.volume)
                                : 0.0;
-    const double total = films + others + maps;
+    return RunMemory{films + others, maps, layers};
+}
+
+void check_run_memory(const RunSetup& setup, bool with_reference) {
+    const SceneDesc& desc = setup.run;
+    const RunMemory m = run_memory(setup, with_reference);
+    const double total = m.images + m.maps;
     const uint64_t budget = memory_budget_bytes();
     if (total <= double(budget)) return;
     const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
     const std::string images =
         std::to_string(desc.camera.width) + " x " + std::to_string(desc.camera.height) +
-        " pixels x " + std::to_string(layers) + " images (beauty, layers, batches" +
+        " pixels x " + std::to_string(m.layers) + " images (beauty, layers, batches" +
         (setup.photon_batches() ? ", the maps' variance" : "") +
-        (bias_halves ? ", bias halves" : "") + ") x 2 films x 12 bytes, and more";
-    throw InputError(desc.path, maps > films + others ? "/photons" : "/camera/width",
-                     "the run needs about " + mb(total) + ": images " + mb(films + others) + " (" +
-                         images + "), photon maps " + mb(maps) + "; only " + mb(double(budget)) +
+        (setup.map_bias() ? ", bias halves" : "") + ") x 2 films x 12 bytes, and more";
+    throw InputError(desc.path, m.maps > m.images ? "/photons" : "/camera/width",
+                     "the run needs about " + mb(total) + ": images " + mb(m.images) + " (" +
+                         images + "), photon maps " + mb(m.maps) + "; only " + mb(double(budget)) +
                          " of memory are available; expected a smaller image or fewer photons");
 }
 
@@ -406,10 +412,57 @@ int write_scene_file(const RenderArgs& args) {
     return 0;
 }
 
+/// The process itself, measured: a render of an 8 x 6 image peaks at about this (libraries,
+/// thread stacks, allocator arenas).
+constexpr double kProgramBytes = 40.0 * (1 << 20);
+
+/// --dry-run: what the run would hold at its peak, from the estimates the checks use (images,
+/// photon maps, each grid's tree and sampler from the file's metadata) and the program, and its
+/// samples and photons, without loading or tracing anything.
+int dry_run(const RenderArgs& args, const RenderJob& job) {
+    const RunSetup setup = resolve_run(job.desc);
+    const RunMemory m = run_memory(setup, !args.reference.empty());
+    double grids = 0.0;
+    bool unknown = false;
+    const int frame = job.range ? job.range->first : 0;
+    for (const MediumDesc& medium : job.desc.media) {
+        if (medium.type != MediumType::Vdb) continue;
+        const std::string file = resolve(job.desc, expand_frame(medium.file, frame));
+        std::vector<std::pair<std::string, int>> read = {{medium.grid, 1}};
+        if (!medium.color_grid.empty()) read.push_back({medium.color_grid, 3});
+        if (medium.emission && !medium.emission->grid.empty())
+            read.push_back({medium.emission->grid, 1});
+        for (const auto& [grid, samplers] : read) {
+            const GridMemory g = grid_memory(file, grid);
+            unknown |= !g.known;
+            grids += double(g.tree) + samplers * double(g.sampler);
+        }
+    }
+    const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
+    const SceneDesc& d = setup.run;
+    std::cout << "dry run: " << args.scene << "\n"
+              << "integrator: " << integrator_name(setup.method) << " (" << setup.reason << ")\n"
+              << "predicted peak memory: about " << mb(m.images + m.maps + grids + kProgramBytes)
+              << " (images " << mb(m.images) << ", photon maps " << mb(m.maps) << ", grids "
+              << mb(grids) << (unknown ? " and grids without size metadata" : "")
+              << ", the program " << mb(kProgramBytes) << ")\n"
+              << "work: " << uint64_t(d.camera.width) * d.camera.height * d.render.spp
+              << " camera samples (" << d.camera.width << " x " << d.camera.height << " x "
+              << d.render.spp << " spp)";
+    if (setup.photon())
+        std::cout << ", photon budgets: volume " << setup.photons.volume << ", global "
+                  << setup.photons.global << ", caustic " << setup.photons.caustic;
+    std::cout << (job.range ? ", per frame of " + std::to_string(job.range->frames().size())
+                            : std::string())
+              << "\n";
+    return 0;
+}
+
 int run_render(const RenderArgs& args) {
     if (!args.write_scene.empty()) return write_scene_file(args);
     RenderJob job;
     agree_on_input(args.ranks, [&] { job = prepare_render(args); });
+    if (args.dry_run) return args.ranks && args.ranks->rank() != 0 ? 0 : dry_run(args, job);
     agree_on_job(args, job);
     if (is_vdb_path(args.scene) && (!args.ranks || args.ranks->rank() == 0))
         for (const std::string& w :

@@ -32,6 +32,7 @@ struct RenderArgs {
     bool resume = false;  ///< skip frames whose EXR and PNG exist; continue from a checkpoint
     double checkpoint_every = 0.0;  ///< progressive: seconds between checkpoints; 0 = none
     std::string write_scene;        ///< --write-scene: write the scene (with --set) here, no render
+    bool dry_run = false;           ///< --dry-run: the checks, the plan and the predicted peak
     Ranks* ranks = nullptr;         ///< under mpirun: this job's ranks (rank 0 prints and writes)
 };
 
@@ -54,9 +55,16 @@ int run_volume(const VolumeArgs& args);
 /// stderr ("" when the setting was within them), for the report.
 std::string cap_threads(SceneDesc* desc);
 struct RunSetup;
-/// Estimates the memory of one resolved run up front (images: every film layer twice, the
-/// reference and the PNG; photon maps at the bytes per photon docs/measurements.md gives) and
-/// throws InputError naming the estimate in MB when it exceeds core/memory_budget.h's budget.
+/// The memory of one resolved run, estimated up front: images (every film layer twice, the
+/// reference and the PNG) and photon maps (at the bytes per photon docs/measurements.md gives),
+/// in bytes; `layers`: the film's images per pixel.
+struct RunMemory {
+    double images = 0.0, maps = 0.0;
+    int layers = 0;
+};
+RunMemory run_memory(const RunSetup& setup, bool with_reference);
+/// Throws InputError naming run_memory's estimate in MB when it exceeds core/memory_budget.h's
+/// budget.
 void check_run_memory(const RunSetup& setup, bool with_reference);
 /// Throws InputError{output, option, ...} when the output path names one of the run's inputs.
 void check_not_an_input(const std::string& output, const std::string& option,

@@ -79,6 +79,8 @@ int main(int argc, char** argv) {
     CLI::App* r = app.add_subcommand("render", "render a scene file to EXR + PNG");
     r->add_option("scene", render.scene, "scene JSON file, or a VDB cache (a scene made for it)")
         ->required();
+    r->add_flag("--dry-run", render.dry_run,
+                "check the run, print its plan, predicted peak memory and work, and stop");
     r->add_option("--write-scene", render.write_scene,
                   "write the scene (a VDB's made scene, --set applied) to this JSON file and stop");
     r->add_option("-o,--output", render.output, "output .exr (default out/<scene>.exr)");

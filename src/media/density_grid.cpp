@@ -254,24 +254,37 @@ constexpr double kLeafValueBytes = 512.0 * sizeof(float);
 /// Refuses a grid whose sampler (for its active box and `leaves` leaves) has too many cells or,
 /// with `tree_bytes` (OpenVDB's tree, not yet read; 0 once it is), needs more than the memory
 /// available.
-void check_sampler_size(const std::string& path, const std::string& field,
-                        const std::string& grid_name, const CoordBBox& active, uint64_t leaves,
-                        uint64_t tree_bytes = 0) {
-    constexpr int kCell = DensityGrid::kMajorantCell;
-    double cells = 1.0, parts = 1.0;
+/// The sampler's cells and bytes for an active box and `leaves` leaves (its span in voxels, for
+/// messages).
+struct SamplerSize {
+    double cells = 1.0, bytes = 0.0;
     std::string span;
+};
+SamplerSize sampler_size(const CoordBBox& active, uint64_t leaves) {
+    constexpr int kCell = DensityGrid::kMajorantCell;
+    SamplerSize s;
+    double parts = 1.0;
     for (int a = 0; a < 3; ++a) {
         // index_bounds() grows the active box by one voxel on each side.
         const int64_t lo = static_cast<int64_t>(active.min()[a]) - 1;
         const int64_t hi = static_cast<int64_t>(active.max()[a]) + 1;
         const double n = std::floor(double(hi) / kCell) - std::floor(double(lo) / kCell) + 1.0;
-        cells *= n;
+        s.cells *= n;
         parts *= n + 1.0;
-        span += (a ? " x " : "") + std::to_string(hi - lo - 1);
+        s.span += (a ? " x " : "") + std::to_string(hi - lo - 1);
     }
-    const double bricks = std::min(cells, static_cast<double>(leaves));
-    const double bytes = 32.0 * parts + 12.0 * cells +
-                         bricks * detail::kBrickValues * static_cast<double>(sizeof(float));
+    const double bricks = std::min(s.cells, static_cast<double>(leaves));
+    s.bytes = 32.0 * parts + 12.0 * s.cells +
+              bricks * detail::kBrickValues * static_cast<double>(sizeof(float));
+    return s;
+}
+
+void check_sampler_size(const std::string& path, const std::string& field,
+                        const std::string& grid_name, const CoordBBox& active, uint64_t leaves,
+                        uint64_t tree_bytes = 0) {
+    const SamplerSize size = sampler_size(active, leaves);
+    const double cells = size.cells, bytes = size.bytes;
+    const std::string& span = size.span;
     const uint64_t budget = memory_budget_bytes();
     if (cells <= double(kMaxSamplerCells) && bytes + double(tree_bytes) <= double(budget)) return;
     const std::string tree =
@@ -293,8 +306,10 @@ void check_sampler_size(const std::string& path, const std::string& field,
 /// check_sampler_size does, so that a grid too big for the machine is refused with its sizes
 /// instead of the kernel's ending the process. A file without that metadata (or whose metadata
 /// cannot be read: the probe reports why) is checked once read.
-void check_before_reading(const std::string& path, const std::string& field,
-                          const std::string& grid_name) {
+/// The file's metadata of grid `grid_name`: file_mem_bytes (its tree's size in memory) and its
+/// active box; false when the file has no such metadata or cannot be read.
+bool grid_metadata(const std::string& path, const std::string& grid_name, uint64_t* tree_bytes,
+                   CoordBBox* active) {
     openvdb::GridBase::Ptr meta;
     try {
         openvdb::io::File file(path);
@@ -302,23 +317,41 @@ void check_before_reading(const std::string& path, const std::string& field,
         if (file.hasGrid(grid_name)) meta = file.readGridMetadata(grid_name);
         file.close();
     } catch (const std::exception&) {
-        return;
+        return false;
     }
-    if (!meta) return;
+    if (!meta) return false;
     const auto bytes = meta->getMetadata<openvdb::Int64Metadata>("file_mem_bytes");
     const auto lo = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_min");
     const auto hi = meta->getMetadata<openvdb::Vec3IMetadata>("file_bbox_max");
-    if (!bytes || !lo || !hi || bytes->value() <= 0) return;
-    const CoordBBox active(Coord(lo->value()), Coord(hi->value()));
-    if (active.empty()) return;
-    const double tree = double(bytes->value());
-    check_sampler_size(path, field, grid_name, active, uint64_t(tree / kLeafValueBytes) + 1,
-                       uint64_t(tree));
+    if (!bytes || !lo || !hi || bytes->value() <= 0) return false;
+    *active = CoordBBox(Coord(lo->value()), Coord(hi->value()));
+    *tree_bytes = uint64_t(bytes->value());
+    return !active->empty();
+}
+
+void check_before_reading(const std::string& path, const std::string& field,
+                          const std::string& grid_name) {
+    uint64_t tree = 0;
+    CoordBBox active;
+    if (!grid_metadata(path, grid_name, &tree, &active)) return;
+    check_sampler_size(path, field, grid_name, active, uint64_t(double(tree) / kLeafValueBytes) + 1,
+                       tree);
 }
 
 }  // namespace
 
 DensityGrid::~DensityGrid() = default;
+
+GridMemory grid_memory(const std::string& path, const std::string& grid_name) {
+    init_openvdb();
+    GridMemory m;
+    CoordBBox active;
+    if (!grid_metadata(path, grid_name, &m.tree, &active)) return m;
+    m.known = true;
+    m.sampler =
+        uint64_t(sampler_size(active, uint64_t(double(m.tree) / kLeafValueBytes) + 1).bytes);
+    return m;
+}
 
 std::vector<std::string> vdb_grid_names(const std::string& path, const std::string& field) {
     init_openvdb();

@@ -41,6 +41,15 @@ struct GridInfo {
     bool scalar = false;                      ///< min/max are meaningful
 };
 
+/// What reading grid `grid_name` of a VDB file will take, from the metadata OpenVDB writes with
+/// each grid (read without the grid): its tree (file_mem_bytes) and, at most, a density
+/// sampler's for its active box. Not known when the file lacks that metadata or cannot be read.
+struct GridMemory {
+    bool known = false;
+    uint64_t tree = 0, sampler = 0;
+};
+GridMemory grid_memory(const std::string& path, const std::string& grid_name);
+
 /// Lists every grid of a VDB file. Throws InputError{path, "", reason} if unreadable.
 std::vector<GridInfo> inspect_vdb(const std::string& path);
 

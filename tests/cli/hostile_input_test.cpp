@@ -244,6 +244,23 @@ TEST_F(HostileInput, AGridTooBigForTheMemoryIsRefusedFromItsMetadataBeforeItIsRe
                       "density sampler", "available"});
 }
 
+TEST_F(HostileInput, ADryRunPredictsThePeakWithoutRenderingOrWriting) {
+    // scenes/smoke.json (480 x 270, paths ending in the volume map): images of (beauty, 6 layers,
+    // 8 batches, the maps' variance, 4 bias halves) x 2 films x 12 bytes, the variance and samples
+    // layers' 2 x 12 and the PNG's 6 bytes a pixel: 65.3 MB, said rounded up.
+    const double images = 480.0 * 270.0 * ((7 + 8 + 1 + 4) * 2 * 12 + 2 * 12 + 6) / (1 << 20);
+    const RunResult r = run("render " + std::string(FOGMAP_SOURCE_DIR) +
+                            "/scenes/smoke.json --dry-run -o " + path("o.exr"));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("images " + std::to_string(int(std::ceil(images))) + " MB"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("work: 4147200 camera samples (480 x 270 x 32 spp)"), std::string::npos)
+        << r.out;
+    EXPECT_FALSE(fs::exists(path("o.exr")));
+    EXPECT_FALSE(fs::exists(path("o.png")));
+}
+
 TEST_F(HostileInput, VdbWhoseActiveTileSpansTheIndexSpaceIsRefusedUpFront) {
     // A 600-byte file: one active tile at the root level (4096^3 voxels) at voxel size 0.001.
     // The sampler's cells cover the active box: 512^3 cells, ~6 GB, minutes of work.
