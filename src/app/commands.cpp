@@ -390,8 +390,8 @@ void agree_on_job(const RenderArgs& args, const RenderJob& job) {
 int write_scene_file(const RenderArgs& args) {
     const int frame = args.frames.empty() ? 0 : parse_frame_range(args.frames, "--frames").first;
     nlohmann::json doc = scene_document(args.scene, args.overrides, frame);
-    load_scene_desc(args.scene, args.overrides,
-                    frame);  // a scene that would not load is not written
+    // A scene that would not load is not written.
+    load_scene_desc(args.scene, args.overrides, frame);
     check_not_an_input(args.write_scene, "--write-scene", {{args.scene, "scene file"}});
     check_output_path(args.write_scene, "--write-scene");
     const fs::path from = fs::absolute(args.scene).parent_path(),

@@ -378,7 +378,9 @@ TrackResult delta_track(std::vector<Medium::Sampler>& media, const Ray& ray, flo
         const MediumParams& p = media[i].medium().params();
         const Vec3 x = ray.at(t);
         const float d = media[i].density(x);
-        const Color sigma_s = d * media[i].sigma_s_unit(x), sigma_a = d * media[i].sigma_a_unit(x);
+        // Absorption gains the scattering a colour takes (0 without one: the same bits).
+        const Color s_unit = media[i].sigma_s_unit(x);
+        const Color sigma_s = d * s_unit, sigma_a = d * (p.sigma_a + (p.sigma_s - s_unit));
         const float m = mu[i];
         if (emitted && d > 0.0f && media[i].medium().emission())
             *emitted += *beta * (d * p.sigma_a) * media[i].emission(x) / m;

@@ -58,7 +58,6 @@ public:
     /// scene_transform * their grid's own index_to_world. Load time only.
     void set_colour(std::array<std::shared_ptr<const DensityGrid>, 3> channels,
                     const Mat4& scene_transform);
-    bool coloured() const { return colour_[0] != nullptr; }
 
     /// Makes the medium emit; a grid emission is placed by scene_transform * its grid's own
     /// index_to_world (the density's scene transform). Load time only.
@@ -86,12 +85,6 @@ public:
         /// medium has one (then 0 outside the colour grid).
         Color sigma_s_unit(const Vec3& p_world) {
             return colour_sampler_[0] ? coloured_sigma_s(p_world) : medium_->params_.sigma_s;
-        }
-        /// σ_a per unit density at a world point: sigma_a, plus the scattering the colour takes.
-        Color sigma_a_unit(const Vec3& p_world) {
-            const MediumParams& p = medium_->params_;
-            return colour_sampler_[0] ? p.sigma_a + (p.sigma_s - coloured_sigma_s(p_world))
-                                      : p.sigma_a;
         }
         /// One attempt at a point ∝ average(σ_a L_e): a majorant cell, then a voxel-sized unit
         /// cell in it (corners at voxel centres), each ∝ its bound × volume, a uniform point in
