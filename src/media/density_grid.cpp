@@ -247,8 +247,7 @@ DMat4 to_glm(const openvdb::Mat4d& m) {
 /// hold one). One active tile at the root level spans 4096^3 voxels: 134 million cells, ~6 GB.
 constexpr uint64_t kMaxSamplerCells = uint64_t(1) << 26;
 
-/// A float leaf's voxel values in memory: no tree of `tree_bytes` holds more than
-/// tree_bytes / kLeafValueBytes leaves.
+/// A float leaf's voxel values in memory (max_leaves).
 constexpr double kLeafValueBytes = 512.0 * sizeof(float);
 
 /// Refuses a grid whose sampler (for its active box and `leaves` leaves) has too many cells or,
@@ -300,12 +299,6 @@ void check_sampler_size(const std::string& path, const std::string& field,
             mb_text(budget) + ")");
 }
 
-/// Before grid `grid_name` is read (the probe's child reads it too): the memory its tree and
-/// sampler will take, from the metadata OpenVDB writes with each grid (file_mem_bytes, the
-/// tree's in-memory size; file_bbox_min and file_bbox_max, its active box), checked as
-/// check_sampler_size does, so that a grid too big for the machine is refused with its sizes
-/// instead of the kernel's ending the process. A file without that metadata (or whose metadata
-/// cannot be read: the probe reports why) is checked once read.
 /// The file's metadata of grid `grid_name`: file_mem_bytes (its tree's size in memory) and its
 /// active box; false when the file has no such metadata or cannot be read.
 bool grid_metadata(const std::string& path, const std::string& grid_name, uint64_t* tree_bytes,
@@ -329,13 +322,23 @@ bool grid_metadata(const std::string& path, const std::string& grid_name, uint64
     return !active->empty();
 }
 
+/// The most leaves a tree of `tree_bytes` in memory holds.
+uint64_t max_leaves(uint64_t tree_bytes) {
+    return uint64_t(double(tree_bytes) / kLeafValueBytes) + 1;
+}
+
+/// Before grid `grid_name` is read (the probe's child reads it too): the memory its tree and
+/// sampler will take, from the metadata OpenVDB writes with each grid (file_mem_bytes, the
+/// tree's in-memory size; file_bbox_min and file_bbox_max, its active box), checked as
+/// check_sampler_size does, so that a grid too big for the machine is refused with its sizes
+/// instead of the kernel's ending the process. A file without that metadata (or whose metadata
+/// cannot be read: the probe reports why) is checked once read.
 void check_before_reading(const std::string& path, const std::string& field,
                           const std::string& grid_name) {
     uint64_t tree = 0;
     CoordBBox active;
     if (!grid_metadata(path, grid_name, &tree, &active)) return;
-    check_sampler_size(path, field, grid_name, active, uint64_t(double(tree) / kLeafValueBytes) + 1,
-                       tree);
+    check_sampler_size(path, field, grid_name, active, max_leaves(tree), tree);
 }
 
 }  // namespace
@@ -348,8 +351,7 @@ GridMemory grid_memory(const std::string& path, const std::string& grid_name) {
     CoordBBox active;
     if (!grid_metadata(path, grid_name, &m.tree, &active)) return m;
     m.known = true;
-    m.sampler =
-        uint64_t(sampler_size(active, uint64_t(double(m.tree) / kLeafValueBytes) + 1).bytes);
+    m.sampler = uint64_t(sampler_size(active, max_leaves(m.tree)).bytes);
     return m;
 }
 

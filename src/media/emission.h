@@ -10,12 +10,18 @@
 #include "core/math.h"
 #include "media/density_grid.h"
 
+#include <array>
 #include <memory>
 #include <vector>
 
 namespace fogmap {
 
 enum class EmissionKind { Blackbody, Scalar, Constant };
+
+/// The grids an emission without a named grid looks for in its medium's file, in this order
+/// (Houdini's and Blender's names).
+inline constexpr std::array<const char*, 4> kEmissionGridNames{"temperature", "heat", "flame",
+                                                               "flames"};
 
 struct EmissionParams {
     EmissionKind kind = EmissionKind::Constant;

@@ -134,8 +134,6 @@ void attach_colour(const SceneDesc& desc, size_t i, const std::string& path, Med
                             "scatter more light than reaches it)");
 }
 
-constexpr std::array<const char*, 4> kEmissionGridNames{"temperature", "heat", "flame", "flames"};
-
 /// The first of kEmissionGridNames that `names` holds, or "".
 std::string find_emission_grid(const std::vector<std::string>& names) {
     for (const char* want : kEmissionGridNames)

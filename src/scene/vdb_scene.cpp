@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 #include "core/frames.h"
+#include "media/emission.h"
 
 #include <algorithm>
 #include <cctype>
@@ -10,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <initializer_list>
+#include <iterator>
 #include <map>
 #include <mutex>
 
@@ -24,9 +26,13 @@ std::string lower(std::string s) {
     return s;
 }
 
-bool named(const GridInfo& g, std::initializer_list<const char*> names) {
+template <class Names>
+bool named(const GridInfo& g, const Names& names) {
     const std::string n = lower(g.name);
-    return std::any_of(names.begin(), names.end(), [&](const char* s) { return n == s; });
+    return std::any_of(std::begin(names), std::end(names), [&](const char* s) { return n == s; });
+}
+bool named(const GridInfo& g, std::initializer_list<const char*> names) {
+    return named<std::initializer_list<const char*>>(g, names);
 }
 
 bool is_float(const GridInfo& g) { return g.value_type == "float"; }
@@ -39,15 +45,14 @@ double num(double v) {
 }
 nlohmann::json point(const Vec3& p) { return {num(p.x), num(p.y), num(p.z)}; }
 
-// Houdini and Blender names: density; temperature (Houdini's pyro: not in kelvin), flame and
-// heat (Blender), flames; Cd and color (colour, vec3s); vel, velocity and v (and their .x/.y/.z).
+// Houdini and Blender names: density; the emission's (kEmissionGridNames: Houdini's pyro
+// temperature is not in kelvin); Cd and color (colour, vec3s); vel, velocity and v (and their
+// .x/.y/.z).
 const GridInfo* density_grid(const std::vector<GridInfo>& grids) {
     for (const GridInfo& g : grids)
         if (is_float(g) && named(g, {"density"})) return &g;
     for (const GridInfo& g : grids)
-        if (is_float(g) && g.grid_class == "fog volume" &&
-            !named(g, {"temperature", "flame", "flames", "heat"}))
-            return &g;
+        if (is_float(g) && g.grid_class == "fog volume" && !named(g, kEmissionGridNames)) return &g;
     return nullptr;
 }
 
@@ -58,7 +63,7 @@ const GridInfo* colour_grid(const std::vector<GridInfo>& grids) {
 }
 
 const GridInfo* emission_grid(const std::vector<GridInfo>& grids) {
-    for (const char* name : {"temperature", "flame", "flames", "heat"})
+    for (const char* name : kEmissionGridNames)
         for (const GridInfo& g : grids)
             if (is_float(g) && named(g, {name}) && g.max_value > 0.0) return &g;
     return nullptr;
