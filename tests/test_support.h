@@ -87,6 +87,14 @@ struct RunResult {
     std::string out, err;
 };
 
+/// The line of a text report that starts with `key`, up to its rate in parentheses ("" if none).
+inline std::string report_line(const std::string& out, const std::string& key) {
+    const size_t at = out.find("\n" + key);
+    if (at == std::string::npos) return "";
+    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
+    return line.substr(0, line.find(" ("));
+}
+
 /// Runs `shell_prefix <fogmap> args` through the shell (e.g. prefix "ulimit -v N; " or
 /// "cd DIR && "), stdout and stderr captured in files inside `dir`.
 inline RunResult run_fogmap(const std::string& args, const fs::path& dir,

@@ -16,6 +16,7 @@
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/metrics.h"
+#include "render/part_file.h"
 #include "render/pilot.h"
 #include "render/pipeline.h"
 #include "render/report.h"
@@ -127,6 +128,15 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
                          " of memory are available; expected a smaller image or fewer photons");
 }
 
+void check_reference_size(const std::string& path, const Image& reference,
+                          const CameraDesc& camera) {
+    if (reference.width != camera.width || reference.height != camera.height)
+        throw InputError(path, "",
+                         "reference is " + std::to_string(reference.width) + "x" +
+                             std::to_string(reference.height) + ", the camera renders " +
+                             std::to_string(camera.width) + "x" + std::to_string(camera.height));
+}
+
 void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs) {
     for (const auto& [input, what] : inputs)
@@ -135,9 +145,6 @@ void check_not_an_input(const std::string& output, const std::string& option,
                              "is the " + what + " of this run; expected a different output path");
 }
 
-namespace {
-
-/// The paths of every file the scene reads (VDB media, then meshes), resolved.
 std::vector<std::string> input_files(const SceneDesc& desc) {
     std::vector<std::string> files;
     for (const MediumDesc& m : desc.media)
@@ -146,6 +153,22 @@ std::vector<std::string> input_files(const SceneDesc& desc) {
         if (sh.type == ShapeType::Mesh) files.push_back(resolve(desc, sh.file));
     return files;
 }
+
+std::string file_digest(const std::string& path) {
+    std::error_code ec;
+    const uint64_t size = fs::file_size(path, ec);
+    std::ifstream in(path, std::ios::binary);
+    std::string sample(64 * 1024, '\0'), all = std::to_string(size) + ":";
+    for (int k = 0; k < 16 && in && size > 0; ++k) {
+        in.seekg(std::streamoff(size / 16 * uint64_t(k)));
+        in.read(sample.data(), std::streamsize(sample.size()));
+        all += std::to_string(fnv1a(sample.substr(0, size_t(in.gcount())))) + ",";
+        in.clear();
+    }
+    return all;
+}
+
+namespace {
 
 /// The size and modification time of every file the scene reads: a resumed run must read the
 /// very files its checkpoint was made from.
@@ -160,8 +183,47 @@ std::string input_stamps(const SceneDesc& desc) {
     return stamps;
 }
 
+/// The most parts one run is split into (--part): a part renders every N-th tile at least.
+constexpr int kMaxParts = 100000;
+
+/// --part I/N as the tiles (and iterations) of rank I-1 of N; none for "". Throws InputError.
+std::optional<TileShare> parse_part(const std::string& text) {
+    if (text.empty()) return std::nullopt;
+    const auto number = [](const std::string& t) {
+        const bool digits =
+            !t.empty() && t.size() <= 9 && t.find_first_not_of("0123456789") == std::string::npos;
+        return digits ? std::stol(t) : -1L;
+    };
+    const size_t slash = text.find('/');
+    const long i = number(text.substr(0, slash)),
+               n = slash == std::string::npos ? -1L : number(text.substr(slash + 1));
+    if (i < 1 || n < 1 || i > n || n > kMaxParts)
+        throw InputError("", "--part",
+                         "found '" + text + "'; expected I/N, part I of N parts (1 <= I <= N <= " +
+                             std::to_string(kMaxParts) + "), e.g. 3/8");
+    return TileShare{int(i - 1), int(n)};
+}
+
+/// Writes `run`'s part (`share`) to `path` with the fingerprints of its settings and input files.
+void write_part(const std::string& path, const TileShare& share, PipelineResult run) {
+    PartFile part;
+    part.run.index = share.index + 1;
+    part.run.count = share.count;
+    part.run.seed = run.setup.run.render.seed;
+    part.run.settings = part_settings_fingerprint(run.setup);
+    std::string digests;
+    for (const std::string& file : input_files(run.setup.run)) digests += file_digest(file) + "\n";
+    part.run.inputs = fnv1a(digests);
+    part.run.setup = std::move(run.setup);
+    part.sums = std::move(*run.part);
+    create_output_folder(path);
+    OutputFiles out;
+    write_staged_text(out.stage(path), part_bytes(part), "part file");
+    out.commit();
+}
+
 /// Renders `desc` and writes `exr` and `png` (both complete before either replaces an older one,
-/// core/output_files.h); returns the report.
+/// core/output_files.h); returns the report. With --part, writes the part file `exr` alone.
 Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
                         const std::string& png, const Image* reference,
                         const RunSetup* decided = nullptr) {
@@ -191,9 +253,18 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
         out.commit();
     };
     if (args.checkpoint_every > 0.0 && root) create_output_folder(checkpoint_path);
+    const std::optional<TileShare> part = parse_part(args.part);
     PipelineResult run =
-        run_pipeline(desc, args.quiet, reference, args.ranks, &checkpoints, &setup);
+        run_pipeline(desc, args.quiet, reference, args.ranks, &checkpoints, &setup, part);
     Report& report = run.report;
+    if (part) {
+        const Timer timer;
+        Report own = run.part->report;  // the part's lines on stdout
+        write_part(exr, *part, std::move(run));
+        own.phases_s.emplace_back("write", timer.seconds());
+        own.outputs = {exr};
+        return own;
+    }
     if (!root) return std::move(report);  // rank 0 writes
     if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
     const Image& image = run.film.beauty;
@@ -231,18 +302,74 @@ struct RenderJob {
     SceneDesc desc;
 };
 
+/// What a part prints for its report (the image's comes from fogmap merge): the file it wrote and
+/// its phases.
+nlohmann::json part_json(const RenderArgs& args, const Report& report) {
+    nlohmann::json phases = nlohmann::json::object();
+    for (const auto& [name, s] : report.phases_s) phases[name] = s;
+    return {{"part", args.part},
+            {"outputs", report.outputs},
+            {"time_s", phases},
+            {"warnings", report.warnings}};
+}
+std::string part_text(const RenderArgs& args, const Report& report) {
+    std::string text = "part " + args.part + ": wrote " + report.outputs.at(0) + "\n";
+    for (const auto& [name, s] : report.phases_s) {
+        char line[200];
+        std::snprintf(line, sizeof line, "time %s: %.3f s\n", name.c_str(), s);
+        text += line;
+    }
+    return text;
+}
+
+/// What a part (--part) cannot be combined with: parts never talk.
+void check_part(const RenderArgs& args, const SceneDesc& desc) {
+    if (args.ranks && args.ranks->size() > 1)
+        throw InputError("", "--part",
+                         "is for farms without MPI; under mpirun the ranks share the run "
+                         "themselves: expected one or the other");
+    if (!args.reference.empty())
+        throw InputError("", "--reference",
+                         "a part has no image to compare; give the reference to fogmap merge");
+    if (args.checkpoint_every > 0.0 || args.resume)
+        throw InputError("", args.resume ? "--resume" : "--checkpoint-every",
+                         "cannot be combined with --part; a part is rendered whole (expected one "
+                         "or the other)");
+    if (desc.progressive.time_budget > 0.0f || desc.progressive.target_relmse > 0.0f)
+        throw InputError(desc.path,
+                         desc.progressive.time_budget > 0.0f ? "/progressive/time_budget"
+                                                             : "/progressive/target_relmse",
+                         "parts never talk, so they cannot agree when a time budget or a target "
+                         "stops the run; with --part expected progressive.iterations (a count) "
+                         "or a plain render");
+}
+
 /// The render's checks before any work, in order: options and outputs first, then the reference,
 /// then the scene. Throws InputError.
 RenderJob prepare_render(const RenderArgs& args) {
     const bool sequence = !args.frames.empty();
+    const std::optional<TileShare> part = parse_part(args.part);
+    // A part's output is its part file (-o); `fogmap merge` writes the EXR and PNG.
+    const std::string ext = part ? ".fogpart" : ".exr";
     std::string exr = args.output;
     if (exr.empty())
-        exr = "out/" + fs::path(args.scene).stem().string() + (sequence ? ".####" : "") + ".exr";
-    if (!has_extension(exr, ".exr"))
-        throw InputError("", "-o", "'" + exr + "' does not end in .exr; expected an .exr path");
-    std::string png =
-        args.png.empty() ? fs::path(exr).replace_extension(".png").string() : args.png;
-    if (!has_extension(png, ".png"))
+        exr = "out/" + fs::path(args.scene).stem().string() + (sequence ? ".####" : "") +
+              (part ? ".part-" + std::to_string(part->index + 1) + "-of-" +
+                          std::to_string(part->count)
+                    : "") +
+              ext;
+    if (!has_extension(exr, ext.c_str()))
+        throw InputError(
+            "", "-o",
+            "'" + exr + "' does not end in " + ext + "; expected " +
+                (part ? "the part file's path (fogmap merge reads it)" : "an .exr path"));
+    if (part && !args.png.empty())
+        throw InputError("", "--png",
+                         "a part writes no image; fogmap merge writes the PNG beside the EXR");
+    std::string png = part               ? std::string()
+                      : args.png.empty() ? fs::path(exr).replace_extension(".png").string()
+                                         : args.png;
+    if (!part && !has_extension(png, ".png"))
         throw InputError("", "--png", "'" + png + "' does not end in .png; expected a .png path");
     if (!std::isfinite(args.exposure))
         throw InputError("", "--exposure",
@@ -251,6 +378,7 @@ RenderJob prepare_render(const RenderArgs& args) {
         sequence ? std::optional<FrameRange>(parse_frame_range(args.frames, "--frames"))
                  : std::nullopt;
     for (const auto& [path, option] : {std::pair{exr, "-o"}, std::pair{png, "--png"}}) {
+        if (path.empty()) continue;  // a part's PNG
         check_frame_pattern(path, "", option);
         if (sequence && !has_frame_pattern(path))
             throw InputError("", option,
@@ -276,9 +404,11 @@ RenderJob prepare_render(const RenderArgs& args) {
         {args.scene, "scene file"}, {args.reference, "reference image"}};
     const int first = range ? range->first : 0;
     check_not_an_input(expand_frame(exr, first), "-o", inputs);
-    check_not_an_input(expand_frame(png, first), "--png", inputs);
     check_output_path(expand_frame(exr, first), "-o");
-    check_output_path(expand_frame(png, first), "--png");
+    if (!part) {
+        check_not_an_input(expand_frame(png, first), "--png", inputs);
+        check_output_path(expand_frame(png, first), "--png");
+    }
 
     // Read the reference first: a bad reference fails before any work.
     Image reference;
@@ -291,13 +421,7 @@ RenderJob prepare_render(const RenderArgs& args) {
             args.scene, "",
             "holds a frame pattern; expected --frames FIRST-LAST to render its frames");
     const SceneDesc desc = load_scene_desc(args.scene, args.overrides, first);
-    if (!args.reference.empty() &&
-        (reference.width != desc.camera.width || reference.height != desc.camera.height))
-        throw InputError(args.reference, "",
-                         "reference is " + std::to_string(reference.width) + "x" +
-                             std::to_string(reference.height) + ", the camera renders " +
-                             std::to_string(desc.camera.width) + "x" +
-                             std::to_string(desc.camera.height));
+    if (!args.reference.empty()) check_reference_size(args.reference, reference, desc.camera);
     if (args.checkpoint_every > 0.0 && !(resolve_run(desc).photon() && desc.progressive.enabled()))
         throw InputError("", "--checkpoint-every",
                          "checkpoints are for progressive photon mapping; expected --iterations N "
@@ -311,6 +435,7 @@ RenderJob prepare_render(const RenderArgs& args) {
                 throw InputError(checkpoint, args.resume ? "--resume" : "--checkpoint-every",
                                  "is a folder; expected the checkpoint's file path (or none)");
         }
+    if (part) check_part(args, desc);
     if (args.progressive && !desc.progressive.enabled())
         throw InputError("", "--progressive",
                          "needs --time-budget SECONDS, --iterations N or --target-relmse X (or "
@@ -326,22 +451,6 @@ RenderJob prepare_render(const RenderArgs& args) {
                                  "render its frames");
 
     return RenderJob{exr, png, range, std::move(reference), desc};
-}
-
-/// A digest of a file's size and contents at 16 places (64 KB each): ranks on other machines
-/// read copies of it, whose modification times differ.
-std::string file_digest(const std::string& path) {
-    std::error_code ec;
-    const uint64_t size = fs::file_size(path, ec);
-    std::ifstream in(path, std::ios::binary);
-    std::string sample(64 * 1024, '\0'), all = std::to_string(size) + ":";
-    for (int k = 0; k < 16 && in && size > 0; ++k) {
-        in.seekg(std::streamoff(size / 16 * uint64_t(k)));
-        in.read(sample.data(), std::streamsize(sample.size()));
-        all += std::to_string(fnv1a(sample.substr(0, size_t(in.gcount())))) + ",";
-        in.clear();
-    }
-    return all;
 }
 
 /// Every rank must run the same render: its settings (the scene's keys after --set), options and
@@ -477,10 +586,11 @@ int run_render(const RenderArgs& args) {
         const Report report =
             render_and_write(args, desc, exr, png, args.reference.empty() ? nullptr : &reference);
         if (args.ranks && args.ranks->rank() != 0) return 0;
+        const bool part = !args.part.empty();
         if (args.json)
-            std::cout << report_json(report).dump(2) << "\n";
+            std::cout << (part ? part_json(args, report) : report_json(report)).dump(2) << "\n";
         else
-            std::cout << report_text(report);
+            std::cout << (part ? part_text(args, report) : report_text(report));
         return 0;
     }
 
@@ -555,12 +665,14 @@ int run_render(const RenderArgs& args) {
             throw framed;
         }
         if (!speaks) continue;
+        const bool part = !args.part.empty();
         if (args.json) {
-            nlohmann::json j = report_json(report);
+            nlohmann::json j = part ? part_json(args, report) : report_json(report);
             j["frame"] = f;
             reports.push_back(j);
         } else {
-            std::cout << "frame " << f << "\n" << report_text(report);
+            std::cout << "frame " << f << "\n"
+                      << (part ? part_text(args, report) : report_text(report));
         }
     }
     if (args.json && speaks) std::cout << reports.dump(2) << "\n";

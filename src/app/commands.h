@@ -16,6 +16,8 @@ class Validator;
 namespace fogmap {
 
 struct SceneDesc;
+struct CameraDesc;
+struct Image;
 class Ranks;
 
 struct RenderArgs {
@@ -33,6 +35,7 @@ struct RenderArgs {
     double checkpoint_every = 0.0;  ///< progressive: seconds between checkpoints; 0 = none
     std::string write_scene;        ///< --write-scene: write the scene (with --set) here, no render
     bool dry_run = false;           ///< --dry-run: the checks, the plan and the predicted peak
+    std::string part;  ///< --part I/N: part I of N to a part file (render/part_file.h); "" = all
     Ranks* ranks = nullptr;         ///< under mpirun: this job's ranks (rank 0 prints and writes)
 };
 
@@ -66,6 +69,9 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference);
 /// Throws InputError naming run_memory's estimate in MB when it exceeds core/memory_budget.h's
 /// budget.
 void check_run_memory(const RunSetup& setup, bool with_reference);
+/// Throws InputError{path, "", ...} unless `reference` (read from `path`) is the camera's size.
+void check_reference_size(const std::string& path, const Image& reference,
+                          const CameraDesc& camera);
 /// Throws InputError{output, option, ...} when the output path names one of the run's inputs.
 void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs);
@@ -85,5 +91,13 @@ Subcommand add_validate_command(CLI::App& app);
 CLI::Validator seed_check();
 /// `fogmap bench SCENE ...` (app/bench_command.cpp).
 Subcommand add_bench_command(CLI::App& app);
+/// `fogmap merge PARTS... -o OUT.exr` (app/merge_command.cpp).
+Subcommand add_merge_command(CLI::App& app);
+
+/// A digest of a file's size and contents at 16 places: the same for copies of it (ranks and
+/// parts on other machines read copies, whose modification times differ).
+std::string file_digest(const std::string& path);
+/// The paths of every file the scene reads (VDB media, then meshes), resolved.
+std::vector<std::string> input_files(const SceneDesc& desc);
 
 }  // namespace fogmap

@@ -1,6 +1,6 @@
-// fogmap command line: render, info, volume, validate, bench. Parses arguments with CLI11 and maps
-// failures to exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything else
-// (out of memory included). Every failure prints one line "fogmap: error: ...".
+// fogmap command line: render, info, volume, validate, bench, merge. Parses arguments with CLI11
+// and maps failures to exit codes: 0 success, 2 bad input (InputError or bad arguments), 1 anything
+// else (out of memory included). Every failure prints one line "fogmap: error: ...".
 
 #include "app/commands.h"
 #include "app/mpi_ranks.h"
@@ -112,6 +112,9 @@ int main(int argc, char** argv) {
                 "skip frames already written; continue a progressive run from its checkpoint");
     r->add_option("--checkpoint-every", render.checkpoint_every,
                   "progressive: write <output>.checkpoint every S seconds (for --resume)");
+    r->add_option("--part", render.part,
+                  "I/N: render part I of N of the image to a part file (-o, .fogpart) for "
+                  "fogmap merge: a farm without MPI");
 
     std::string info_path;
     bool info_json = false;
@@ -135,7 +138,8 @@ int main(int argc, char** argv) {
     probe->group("");  // hidden from --help
     probe->add_option("file", probe_path)->required();
 
-    const Subcommand extra[] = {add_validate_command(app), add_bench_command(app)};
+    const Subcommand extra[] = {add_validate_command(app), add_bench_command(app),
+                                add_merge_command(app)};
 
     try {
         app.parse(argc, argv);

@@ -85,6 +85,7 @@ struct RunOptions {
     bool quiet = false, silent = false;
     const Image* reference = nullptr;
     Ranks* ranks = nullptr;
+    std::optional<TileShare> part;  ///< this process's part of a run split by --part
     const Checkpoints* checkpoints = nullptr;
     const Timer* timer = nullptr;
     double load_s = 0.0, pilot_s = 0.0;
@@ -140,6 +141,154 @@ GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     return g;
 }
 
+/// Adds a warning to the report, said on stderr when `speak`.
+void warn_in(Report* report, bool speak, const std::string& text) {
+    if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+    report->warnings.push_back(text);
+}
+
+/// What the estimate of a photon method's run cannot see (the report's "not in it").
+std::string excluded(const RunSetup& setup) {
+    if (setup.map_bias())
+        return "the map's bias beyond its radius's blur (the bias² above holds that part only)";
+    if (setup.photon_batches() || setup.progressive)
+        return "the photon maps' bias (their gather radii blur the light)";
+    return "the photon maps' own noise and their bias (one set of maps serves every sample; their "
+           "gather radii blur the light; photon beams and final gathering are not read in "
+           "batches)";
+}
+
+/// The end of a run whose sums are together, on rank 0 after the reduction or in PartMerge:
+/// the film of a progressive sum, and the report from the summed counts and the film.
+struct RunEnd {
+    const RunSetup& setup;
+    const Counts& counts;
+    int own = 1;  ///< iterations rank 0 (or part 1) ran itself
+    bool speak = false, silent = false;
+
+    /// The mean of a progressive sum over the counted iterations, its clamps warned of.
+    Film mean(const FixedFilm& sum, Report* report) const {
+        if (sum.clamped > 0)
+            warn_in(report, speak,
+                    std::to_string(sum.clamped) +
+                        " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
+                        "clamped");
+        return sum.mean(int(counts.iterations));
+    }
+    void finish(Film* film, Report* report) const;
+
+private:
+    void estimate(Film* film, Report* report) const;
+};
+
+/// The report's counts, its warnings of cut and dropped samples, its figures, the estimate.
+void RunEnd::finish(Film* film, Report* report) const {
+    const SceneDesc& desc = setup.run;
+    Report& r = *report;
+    r.samples = uint64_t(counts.samples);
+    r.rays = uint64_t(counts.rays);
+    r.nonfinite = uint64_t(counts.nonfinite);
+    r.depth_capped = uint64_t(counts.depth_capped);
+    r.photons_emitted = uint64_t(counts.photons_emitted);
+    r.photons_capped = uint64_t(counts.photons_capped);
+    r.steps = uint64_t(counts.steps);
+    r.lookups = uint64_t(counts.lookups);
+    r.gathered = uint64_t(counts.gathered);
+    if (r.samples > 0 && double(r.depth_capped) > kCapWarnShare * double(r.samples)) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "render.max_depth = %d cut %.2g%% of the camera samples while they still "
+                      "carried light; raise it (the image misses that light)",
+                      desc.render.max_depth, 100.0 * double(r.depth_capped) / r.samples);
+        warn_in(report, speak, text);
+    }
+    if (r.nonfinite > 0)
+        warn_in(report, speak,
+                std::to_string(r.nonfinite) + " of " + std::to_string(r.samples) +
+                    " camera samples were not finite (NaN or infinite) and were dropped; the "
+                    "pixels they fell in are darker");
+    r.scene = desc.path;
+    r.settings = settings_json(setup);
+    r.width = film->beauty.width;
+    r.height = film->beauty.height;
+    r.spp = desc.render.spp * (setup.progressive ? int(counts.iterations) : 1);
+    r.photons_capped_power /= std::max(own, 1);  // the mean share over rank 0's iterations
+    r.mean = film->beauty.mean();
+    estimate(film, report);
+}
+
+/// The error estimate from the film's batches (and its map variance and bias halves), its
+/// variance and samples layers, and what it cannot see: a photon method's bias beyond what the
+/// bias halves measure, and the photon gather's maps' noise when one set serves every sample.
+void RunEnd::estimate(Film* film, Report* report) const {
+    if (silent) return;  // auto's pilot runs
+    const Timer timer;
+    const bool progressive = setup.progressive;
+    ErrorEstimate e = estimate_error(*film);
+    ErrorReport& r = report->error;
+    r.valid = e.valid;
+    r.why = progressive ? "needs at least 2 iterations" : "needs at least 2 samples per pixel";
+    r.rel_mse = e.rel_mse.value;
+    r.lo = e.rel_mse.lo;
+    r.hi = e.rel_mse.hi;
+    r.bias_valid = e.bias_valid;
+    r.bias2 = e.bias2.value;
+    r.bias_lo = e.bias2.lo;
+    r.bias_hi = e.bias2.hi;
+    r.batches = e.batches;
+    r.batched_by = progressive ? "iterations" : "samples";
+    r.tail_share = e.tail_share;
+    r.tail = e.tail;
+    r.target = setup.run.progressive.target_relmse;
+    r.reached = r.target > 0.0 && meets_target(e, r.target);
+    r.iterations = progressive ? int(counts.iterations) : 1;  // ranks of a plain run add 1 each
+    if (setup.photon()) r.excludes = excluded(setup);
+    film->variance = std::move(e.variance);
+    film->samples = Image(report->width, report->height);
+    std::fill(film->samples.pixels.begin(), film->samples.pixels.end(), Color(float(report->spp)));
+    add_phase(report, "estimate", timer.seconds());
+}
+
+/// A plain render's counts summed over ranks or parts, with the photons of `first`: every rank
+/// traced a share of the same photon rounds, and every part all of them, and counted them all.
+Counts plain_sum(Counts sum, const Counts& first) {
+    sum.photons_emitted = first.photons_emitted;
+    sum.photons_capped = first.photons_capped;
+    return sum;
+}
+
+/// The report of a run's parts put together (PartMerge): part 1's plan, settings, maps and
+/// streams; every part's phases and work added up (the processes' seconds, not the wall clock),
+/// their iterations in order and their warnings, each once.
+Report merged_report(std::vector<Report> parts) {
+    Report r = std::move(parts[0]);
+    r.parts = int(parts.size());
+    for (size_t i = 1; i < parts.size(); ++i) {
+        const Report& p = parts[i];
+        for (const auto& [name, s] : p.phases_s) add_phase(&r, name, s);
+        r.render_s += p.render_s;
+        r.photon_steps += p.photon_steps;
+        r.photon_interactions += p.photon_interactions;
+        r.precompute_nodes += p.precompute_nodes;
+        r.estimate_events += p.estimate_events;
+        r.iterations.insert(r.iterations.end(), p.iterations.begin(), p.iterations.end());
+        for (const std::string& w : p.warnings)
+            if (std::find(r.warnings.begin(), r.warnings.end(), w) == r.warnings.end())
+                r.warnings.push_back(w);
+    }
+    // An iteration in several parts is one iteration shared (a plain render's tiles): once.
+    const auto by_index = [](const IterationReport& a, const IterationReport& b) {
+        return a.index < b.index;
+    };
+    std::stable_sort(r.iterations.begin(), r.iterations.end(), by_index);
+    r.iterations.erase(std::unique(r.iterations.begin(), r.iterations.end(),
+                                   [](const IterationReport& a, const IterationReport& b) {
+                                       return a.index == b.index;
+                                   }),
+                       r.iterations.end());
+    return r;
+}
+
 /// One run on a loaded scene, as named stages: begin (the Plan), then per round run one
 /// iteration and accumulate it, then reduce over ranks and finish the report.
 class RunLoop {
@@ -164,8 +313,6 @@ private:
     void gather_to_root();
     bool reduce();
     void finish_report();
-    void estimate();
-    std::string excluded() const;
     RenderSettings iteration_settings(int i) const;
 
     const RunSetup& setup_;
@@ -199,9 +346,13 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       scene_(scene),
       o_(o),
       ranks_(o.ranks),
-      n_ranks_(o.ranks ? o.ranks->size() : 1),
-      my_rank_(o.ranks ? o.ranks->rank() : 0),
-      root_(my_rank_ == 0),
+      n_ranks_(o.part    ? o.part->count
+               : o.ranks ? o.ranks->size()
+                         : 1),
+      my_rank_(o.part    ? o.part->index
+               : o.ranks ? o.ranks->rank()
+                         : 0),
+      root_(o.part || my_rank_ == 0),  // a part holds its own sums
       speak_(root_ && !o.silent),
       quiet_(o.quiet || !speak_),
       progressive_(setup.progressive),
@@ -211,10 +362,7 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
       sun_shadows_((o.shared ? o.shared : &own_tables_)->sun) {}
 
-void RunLoop::warn(const std::string& text) {
-    if (speak_) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
-    report_.warnings.push_back(text);
-}
+void RunLoop::warn(const std::string& text) { warn_in(&report_, speak_, text); }
 
 /// The report's first entries and the Plan, printed unless quiet.
 void RunLoop::begin() {
@@ -492,8 +640,25 @@ void RunLoop::gather_to_root() {
     sum_.clamped = uint64_t(counts_.clamped);
 }
 
-/// The ranks' films and counts onto rank 0; false on the other ranks (they hold no result).
+/// The ranks' films and counts onto rank 0; false on the other ranks (they hold no result) and
+/// on a part, which leaves its sums as they are for PartMerge.
 bool RunLoop::reduce() {
+    if (o_.part) {
+        PartSums& p = out_.part.emplace();
+        counts_.clamped = int64_t(sum_.clamped);
+        p.counts = counts_.pack();
+        if (progressive_) {
+            if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, true);
+            p.values = std::move(sum_.values);
+        } else {
+            p.values = film_bits(out_.film);
+            p.map_variance = !out_.film.map_variance.pixels.empty();
+            p.bias_halves = int(out_.film.bias_halves.size());
+            p.batch_share = out_.film.batch_share;
+        }
+        p.report = std::move(report_);
+        return false;
+    }
     if (progressive_) {
         gather_to_root();
         if (!root_) return false;
@@ -501,11 +666,7 @@ bool RunLoop::reduce() {
         // continues from here.
         const Checkpoints* const c = o_.checkpoints;
         if (c && c->every_s > 0.0) c->write({0, int(counts_.iterations), counts_.pack(), sum_});
-        if (sum_.clamped > 0)
-            warn(std::to_string(sum_.clamped) +
-                 " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
-                 "clamped");
-        out_.film = sum_.mean(int(counts_.iterations));
+        out_.film = RunEnd{setup_, counts_, own_, speak_, o_.silent}.mean(sum_, &report_);
         return true;
     }
     if (n_ranks_ > 1) {
@@ -519,12 +680,7 @@ bool RunLoop::reduce() {
         add_phase(&report_, "reduce", reduce.seconds());
         if (!root_) return false;
         set_film_bits(bits, &out_.film);
-        const int64_t photons_emitted = counts_.photons_emitted,
-                      photons_capped = counts_.photons_capped;
-        counts_ = Counts::unpack(c);
-        // Every rank traced a share of the same photon rounds and counted them all.
-        counts_.photons_emitted = photons_emitted;
-        counts_.photons_capped = photons_capped;
+        counts_ = plain_sum(Counts::unpack(c), counts_);
     }
     if (o_.reference)
         report_.iterations.back().rel_mse = image_error(out_.film.beauty, *o_.reference).rel_mse;
@@ -533,84 +689,13 @@ bool RunLoop::reduce() {
 
 /// Rank 0's report from its counts and film.
 void RunLoop::finish_report() {
-    Report& r = report_;
-    r.samples = uint64_t(counts_.samples);
-    r.rays = uint64_t(counts_.rays);
-    r.nonfinite = uint64_t(counts_.nonfinite);
-    r.depth_capped = uint64_t(counts_.depth_capped);
-    r.photons_emitted = uint64_t(counts_.photons_emitted);
-    r.photons_capped = uint64_t(counts_.photons_capped);
-    r.steps = uint64_t(counts_.steps);
-    r.lookups = uint64_t(counts_.lookups);
-    r.gathered = uint64_t(counts_.gathered);
-    if (r.samples > 0 && double(r.depth_capped) > kCapWarnShare * double(r.samples)) {
-        char text[200];
-        std::snprintf(text, sizeof text,
-                      "render.max_depth = %d cut %.2g%% of the camera samples while they still "
-                      "carried light; raise it (the image misses that light)",
-                      desc_.render.max_depth, 100.0 * double(r.depth_capped) / r.samples);
-        warn(text);
-    }
-    if (r.nonfinite > 0)
-        warn(std::to_string(r.nonfinite) + " of " + std::to_string(r.samples) +
-             " camera samples were not finite (NaN or infinite) and were dropped; the pixels "
-             "they fell in are darker");
-    r.scene = desc_.path;
-    r.settings = settings_json(setup_);
-    r.width = out_.film.beauty.width;
-    r.height = out_.film.beauty.height;
-    r.spp = desc_.render.spp * (progressive_ ? int(counts_.iterations) : 1);
-    r.photons_capped_power /= std::max(own_, 1);  // the mean share over rank 0's iterations
-    r.mean = out_.film.beauty.mean();
-    estimate();
-}
-
-/// The error estimate from the film's batches (and its map variance and bias halves), its
-/// variance and samples layers, and what it cannot see: a photon method's bias beyond what the
-/// bias halves measure, and the photon gather's maps' noise when one set serves every sample.
-void RunLoop::estimate() {
-    if (o_.silent) return;  // auto's pilot runs
-    const Timer timer;
-    ErrorEstimate e = estimate_error(out_.film);
-    ErrorReport& r = report_.error;
-    r.valid = e.valid;
-    r.why = progressive_ ? "needs at least 2 iterations" : "needs at least 2 samples per pixel";
-    r.rel_mse = e.rel_mse.value;
-    r.lo = e.rel_mse.lo;
-    r.hi = e.rel_mse.hi;
-    r.bias_valid = e.bias_valid;
-    r.bias2 = e.bias2.value;
-    r.bias_lo = e.bias2.lo;
-    r.bias_hi = e.bias2.hi;
-    r.batches = e.batches;
-    r.batched_by = progressive_ ? "iterations" : "samples";
-    r.tail_share = e.tail_share;
-    r.tail = e.tail;
-    r.target = desc_.progressive.target_relmse;
-    r.reached = r.target > 0.0 && meets_target(e, r.target);
-    r.iterations = progressive_ ? int(counts_.iterations) : 1;  // ranks of a plain run add 1 each
-    if (setup_.photon()) r.excludes = excluded();
-    out_.film.variance = std::move(e.variance);
-    out_.film.samples = Image(report_.width, report_.height);
-    std::fill(out_.film.samples.pixels.begin(), out_.film.samples.pixels.end(),
-              Color(float(report_.spp)));
-    add_phase(&report_, "estimate", timer.seconds());
-}
-
-/// What the estimate of a photon method's run cannot see (the report's "not in it").
-std::string RunLoop::excluded() const {
-    if (setup_.map_bias())
-        return "the map's bias beyond its radius's blur (the bias² above holds that part only)";
-    if (photon_batches_ || progressive_)
-        return "the photon maps' bias (their gather radii blur the light)";
-    return "the photon maps' own noise and their bias (one set of maps serves every sample; their "
-           "gather radii blur the light; photon beams and final gathering are not read in "
-           "batches)";
+    RunEnd{setup_, counts_, own_, speak_, o_.silent}.finish(&out_.film, &report_);
 }
 
 PipelineResult RunLoop::run() {
     const ThreadLimit threads(desc_.render.threads);
     begin();
+    out_.setup = setup_;
     const double loop_start_s = timer_.seconds();
     int ran = base_;  // iterations 1 .. ran are in some rank's sum
     for (int round = 0;; ++round) {
@@ -644,7 +729,8 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
 }
 
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference, Ranks* ranks,
-                            const Checkpoints* checkpoints, const RunSetup* decided) {
+                            const Checkpoints* checkpoints, const RunSetup* decided,
+                            std::optional<TileShare> part) {
     RunSetup setup = decided ? *decided : resolve_run(desc);
     const Timer timer;
     std::unique_ptr<const Scene> scene;
@@ -659,13 +745,70 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
         if (piloted) o.pilot_s = pilot.seconds();
     }
     if (ranks && !setup.progressive) setup.tiles = TileShare{ranks->rank(), ranks->size()};
+    if (part && !setup.progressive) setup.tiles = *part;
     o.quiet = quiet;
     o.reference = reference;
     o.ranks = ranks;
+    o.part = part;
     o.checkpoints = checkpoints;
     o.timer = &timer;
     o.shared = &shared;
     return run_loaded(setup, *scene, o);
+}
+
+size_t part_value_count(const RunSetup& setup, const PartSums& shape) {
+    const int w = setup.run.camera.width, h = setup.run.camera.height;
+    if (setup.progressive) return FixedFilm::value_count(w, h, /*layered=*/true);
+    const size_t images = 1 + kLayerCount + kBatches + (shape.map_variance ? 1 : 0) +
+                          size_t(std::max(shape.bias_halves, 0));
+    return size_t(3) * w * h * images;
+}
+
+void PartMerge::add(PartSums part) {
+    if (reports_.empty()) {
+        first_counts_ = part.counts;
+        reports_.push_back(std::move(part.report));
+        sum_ = std::move(part);
+        return;
+    }
+    FOGMAP_ASSERT(
+        part.counts.size() == sum_.counts.size() && part.values.size() == sum_.values.size(),
+        "the parts of one run have films and counts of one shape");
+    // As MPI_SUM adds them: two's complement, wrapping (a corrupt part cannot make it undefined).
+    const auto add = [](std::vector<int64_t>* sum, const std::vector<int64_t>& values) {
+        for (size_t k = 0; k < sum->size(); ++k)
+            (*sum)[k] = int64_t(uint64_t((*sum)[k]) + uint64_t(values[k]));
+    };
+    add(&sum_.counts, part.counts);
+    add(&sum_.values, part.values);
+    reports_.push_back(std::move(part.report));
+}
+
+PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
+    FOGMAP_ASSERT(!reports_.empty(), "a run has at least one part");
+    const Counts own = Counts::unpack(first_counts_);
+    const SceneDesc& d = setup.run;
+    PipelineResult out;
+    out.report = merged_report(std::move(reports_));
+    if (setup.progressive) {
+        const Counts sum = Counts::unpack(sum_.counts);
+        FixedFilm film;
+        film.zero(d.camera.width, d.camera.height, /*layered=*/true);
+        film.values = std::move(sum_.values);
+        film.clamped = uint64_t(sum.clamped);
+        const RunEnd end{setup, sum, int(own.iterations), speak, false};
+        out.film = end.mean(film, &out.report);
+        end.finish(&out.film, &out.report);
+        return out;
+    }
+    const Counts sum = plain_sum(Counts::unpack(sum_.counts), own);
+    out.film = Film(d.camera.width, d.camera.height, /*layered=*/true);
+    if (sum_.map_variance) out.film.map_variance = Image(d.camera.width, d.camera.height);
+    out.film.bias_halves.assign(size_t(sum_.bias_halves), Image(d.camera.width, d.camera.height));
+    out.film.batch_share = sum_.batch_share;
+    set_film_bits(sum_.values, &out.film);
+    RunEnd{setup, sum, 1, speak, false}.finish(&out.film, &out.report);
+    return out;
 }
 
 PipelineResult run_on_scene(const RunSetup& setup, const Scene& scene, SharedTables* shared) {

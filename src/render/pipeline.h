@@ -13,11 +13,14 @@
 #include "render/report.h"
 #include "render/run_setup.h"
 #include "render/sun_shadows.h"
+#include "render/tiles.h"
 #include "scene/scene_desc.h"
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 namespace fogmap {
 
@@ -32,9 +35,30 @@ struct Checkpoints {
     std::function<void(const Checkpoint&)> write;  ///< on rank 0; fingerprint left 0
 };
 
+/// What one part of a run split into parts (`fogmap render --part`) adds to the run: its sums as
+/// an MPI rank adds its own to rank 0's, and its report before the counts are in.
+struct PartSums {
+    Report report;                ///< the part's own: phases, plan, maps, iterations, warnings
+    std::vector<int64_t> counts;  ///< the run's counts (kRunCounts), the part's own
+    /// A plain render's film as the bits of its values, 0 outside the part's tiles; a progressive
+    /// run's fixed-point sum of the part's iterations (render/film.h, FixedFilm).
+    std::vector<int64_t> values;
+    /// A plain render's film's shape beside its layers and batches: whether it has a map
+    /// variance, how many bias halves, each batch's share of a pixel's samples.
+    bool map_variance = false;
+    int bias_halves = 0;
+    std::array<double, kBatches> batch_share{};
+};
+
+/// PartSums::values' length for a part of `setup`'s run of `shape`'s film.
+size_t part_value_count(const RunSetup& setup, const PartSums& shape);
+
 struct PipelineResult {
     Film film;      ///< mean over iterations, layered
     Report report;  ///< plan, settings, phases (summed over iterations), maps, iterations, mean
+    /// With a part to run: its sums (film and report then unfinished: PartMerge finishes them).
+    std::optional<PartSums> part;
+    RunSetup setup;  ///< the run as it ran (auto's pilot settled)
 };
 
 /// The seed of iteration i (1-based), a function of the run's seed and i alone: a plain render
@@ -56,9 +80,29 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// passes rank 0's totals to checkpoints->write.
 /// `decided` (may be null): the run as already resolved and piloted (a sequence's frames take
 /// the first frame's pick); else resolve_run(desc).
+/// With `part` (`fogmap render --part`, no ranks, no checkpoints, a progressive run by count
+/// alone): runs what rank part.index of part.count would, tracing every photon round itself,
+/// and returns its sums in PipelineResult::part for PartMerge.
 PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* reference = nullptr,
                             Ranks* ranks = nullptr, const Checkpoints* checkpoints = nullptr,
-                            const RunSetup* decided = nullptr);
+                            const RunSetup* decided = nullptr,
+                            std::optional<TileShare> part = std::nullopt);
+
+/// A run put together from its parts' sums, added one part at a time in part order (their
+/// shapes agree: the caller checks), then ended as rank 0 of as many MPI ranks ends that run:
+/// the same film, bit for bit, and the report with the parts' counts summed (merged_report in
+/// pipeline.cpp says how the rest is put together).
+class PartMerge {
+public:
+    void add(PartSums part);
+    /// The film and report; warnings of the end on stderr when `speak`.
+    PipelineResult finish(const RunSetup& setup, bool speak);
+
+private:
+    PartSums sum_;                       ///< counts and values summed; part 1's film shape
+    std::vector<Report> reports_;        ///< each part's
+    std::vector<int64_t> first_counts_;  ///< part 1's own
+};
 
 /// Tables that runs on one loaded scene share, each built by the first run that needs it (and
 /// counted in its report's work alone): the suns' shadow grids (their light, media and

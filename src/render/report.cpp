@@ -110,8 +110,11 @@ std::string report_text(const Report& r) {
             << st["stored"]["caustic"] << ", volume " << st["stored"]["volume"] << "\n";
     out << "image: " << r.width << " x " << r.height << ", " << r.spp << " spp, " << r.threads
         << " threads" << (r.ranks > 1 ? " per rank, " + std::to_string(r.ranks) + " MPI ranks" : "")
-        << "\n";
+        << (r.parts > 0 ? " per part, " + std::to_string(r.parts) + " parts merged" : "") << "\n";
     double total = 0.0;
+    if (r.parts > 0)
+        out << "time: the parts' seconds added up (their processes' time, not the wall clock), "
+               "then the merge's\n";
     for (const auto& [name, s] : r.phases_s) {
         out << "time " << name << ": " << fixed(s, 3) << " s\n";
         total += s;
@@ -173,6 +176,7 @@ nlohmann::json report_json(const Report& r) {
             {"threads", r.threads},
             {"time_s", phases},
             {"ranks", r.ranks},
+            {"parts", r.parts},
             {"samples", r.samples},
             {"samples_per_s", per_second(r.samples, r.render_s)},
             {"rays", r.rays},

@@ -59,6 +59,7 @@ struct Report {
     std::vector<std::pair<std::string, double>> phases_s;  ///< phase name → wall seconds
     int width = 0, height = 0, spp = 0, threads = 0;
     int ranks = 1;  ///< MPI ranks that ran (core/ranks.h); iterations lists rank 0's own
+    int parts = 0;  ///< processes of `render --part` merged (0: none); iterations lists them all
     uint64_t samples = 0, rays = 0, nonfinite = 0;
     /// The work done, counted (deterministic; auto's pilot weighs it: render/pilot.h): the
     /// render's medium density evaluations and tentative collisions, its photon-map and

@@ -63,14 +63,6 @@ std::vector<std::vector<std::string>> read_csv(const std::string& path) {
     return rows;
 }
 
-/// The line of a text report that starts with `key`, up to its rate in parentheses.
-std::string report_line(const std::string& out, const std::string& key) {
-    const size_t at = out.find("\n" + key);
-    if (at == std::string::npos) return "";
-    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
-    return line.substr(0, line.find(" ("));
-}
-
 TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const std::string args = "render -q " + scene +
@@ -86,8 +78,9 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
         const test::RunResult r = run(args + exr, ranks);
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
-        EXPECT_EQ(report_line(r.out, "photons emitted"), report_line(plain.out, "photons emitted"));
-        EXPECT_EQ(report_line(r.out, "samples"), report_line(plain.out, "samples"));
+        EXPECT_EQ(test::report_line(r.out, "photons emitted"),
+                  test::report_line(plain.out, "photons emitted"));
+        EXPECT_EQ(test::report_line(r.out, "samples"), test::report_line(plain.out, "samples"));
         if (ranks > 1) {
             EXPECT_NE(r.out.find(std::to_string(ranks) + " MPI ranks"), std::string::npos) << r.out;
         }
@@ -103,7 +96,7 @@ TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
                              "--set render.integrator=path --target-relmse 0.004 -o ";
     const test::RunResult plain = run(args + at("plain.exr"), 0);
     ASSERT_EQ(plain.code, 0) << plain.err;
-    const std::string reached = report_line(plain.out, "error estimate: target");
+    const std::string reached = test::report_line(plain.out, "error estimate: target");
     ASSERT_NE(reached.find("reached after 16 iterations"), std::string::npos) << plain.out;
     const std::string expected = test::slurp(at("plain.exr"));
     for (int ranks : {1, 2, 3}) {
@@ -112,7 +105,7 @@ TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
         const test::RunResult r = run(args + exr, ranks);
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
-        EXPECT_EQ(report_line(r.out, "error estimate: target"), reached);
+        EXPECT_EQ(test::report_line(r.out, "error estimate: target"), reached);
     }
 }
 
@@ -139,10 +132,10 @@ TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
             const test::RunResult r = run(args + exr, ranks);
             ASSERT_EQ(r.code, 0) << r.err;
             EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from one process's";
-            EXPECT_EQ(report_line(r.out, "photons emitted"),
-                      report_line(plain.out, "photons emitted"));
-            EXPECT_EQ(report_line(r.out, "samples"), report_line(plain.out, "samples"));
-            EXPECT_EQ(report_line(r.out, "rays"), report_line(plain.out, "rays"));
+            EXPECT_EQ(test::report_line(r.out, "photons emitted"),
+                      test::report_line(plain.out, "photons emitted"));
+            EXPECT_EQ(test::report_line(r.out, "samples"), test::report_line(plain.out, "samples"));
+            EXPECT_EQ(test::report_line(r.out, "rays"), test::report_line(plain.out, "rays"));
         }
     }
 }
