@@ -43,10 +43,12 @@ inline constexpr uint64_t kPixelEstimate = 0x61646a6f696e74ull;
 inline constexpr uint64_t kSlab = 0x534C4142ull;
 /// bench's reference render: the runs' seed + key, so it shares none of their samples.
 inline constexpr uint64_t kBenchReference = 0x5eed5eedull;
+/// "SHUTTER": the times of camera samples and photons within a shutter (motion blur).
+inline constexpr uint64_t kShutter = 0x53485554544552ull;
 
-inline constexpr uint64_t kAll[] = {kPixelRows,     kPhotonBounce, kPhotonLight,   kPhotonEmission,
-                                    kEmissionPower, kNoise,        kMapSamples,    kPilot,
-                                    kPixelEstimate, kSlab,         kBenchReference};
+inline constexpr uint64_t kAll[] = {kPixelRows,     kPhotonBounce, kPhotonLight,    kPhotonEmission,
+                                    kEmissionPower, kNoise,        kMapSamples,     kPilot,
+                                    kPixelEstimate, kSlab,         kBenchReference, kShutter};
 
 /// Whether no two keys of kAll are equal.
 constexpr bool all_distinct() {

@@ -428,11 +428,25 @@ openvdb::GridBase::Ptr read_grid(const std::string& path, const std::string& gri
 }  // namespace
 
 /// DensityGrid's friend: the grid of an OpenVDB tree (sanitized, then made into majorants and
-/// bricks), for load and load_channels.
+/// bricks), for load, load_channels and load_velocity.
 struct GridBuilder {
     static std::unique_ptr<DensityGrid> build(FloatTree& tree, const DMat4& index_to_world,
                                               const std::string& path, const std::string& field,
                                               const std::string& grid_name);
+    /// The grids of a vec3s grid's parts, named grid_name[names[n]], without the load warnings
+    /// a part's emptiness would give (it is not the medium's).
+    template <size_t N>
+    static std::array<std::unique_ptr<DensityGrid>, N> build_parts(
+        std::array<FloatTree, N>& trees, const DMat4& index_to_world, const std::string& path,
+        const std::string& field, const std::string& grid_name,
+        const std::array<const char*, N>& names) {
+        std::array<std::unique_ptr<DensityGrid>, N> out;
+        for (size_t n = 0; n < N; ++n) {
+            out[n] = build(trees[n], index_to_world, path, field, grid_name + "[" + names[n] + "]");
+            out[n]->warnings_.clear();
+        }
+        return out;
+    }
 };
 
 std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
@@ -448,46 +462,84 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
     return GridBuilder::build(grid->tree(), index_to_world, path, field, grid_name);
 }
 
+namespace {
+
+/// Grid `grid_name` of `path` as a vec3s grid; `what` names a voxel's value in the type error.
+openvdb::Vec3SGrid::Ptr read_vec3_grid(const std::string& path, const std::string& grid_name,
+                                       const std::string& field, const char* what,
+                                       DMat4* index_to_world) {
+    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, index_to_world);
+    const openvdb::Vec3SGrid::Ptr grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
+    if (!grid)
+        throw InputError(path, field,
+                         "grid '" + grid_name + "' has type " + base->valueType() +
+                             "; expected a vec3s grid (" + what + " per voxel)");
+    return grid;
+}
+
+/// N float trees of `grid`'s active values (voxels and tiles alike): tree n holds part(v, n,
+/// voxels) of a value v standing for `voxels` voxels.
+template <size_t N, class Part>
+std::array<FloatTree, N> split_vec3(const openvdb::Vec3SGrid& grid, Part&& part) {
+    std::array<FloatTree, N> trees;  // background 0
+    for (auto it = grid.tree().cbeginValueOn(); it; ++it) {
+        const uint64_t voxels = it.isVoxelValue() ? 1 : it.getVoxelCount();
+        for (size_t n = 0; n < N; ++n) {
+            const float x = part(*it, n, voxels);
+            if (it.isVoxelValue())
+                trees[n].setValueOn(it.getCoord(), x);
+            else
+                trees[n].addTile(it.getLevel(), it.getCoord(), x, true);
+        }
+    }
+    return trees;
+}
+
+}  // namespace
+
 std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std::string& path,
                                                                        const std::string& grid_name,
                                                                        const std::string& field,
                                                                        uint64_t* clamped) {
     DMat4 index_to_world(1.0);
-    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, &index_to_world);
-    const openvdb::Vec3SGrid::Ptr grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
-    if (!grid)
-        throw InputError(path, field,
-                         "grid '" + grid_name + "' has type " + base->valueType() +
-                             "; expected a vec3s grid (a colour per voxel)");
-    // Each channel its own float tree, values above 1 clamped (voxels and tiles alike); a value
-    // below 0 or not finite is no colour: the file is wrong.
-    std::array<FloatTree, 3> trees{FloatTree(0.0f), FloatTree(0.0f), FloatTree(0.0f)};
+    const auto grid = read_vec3_grid(path, grid_name, field, "a colour", &index_to_world);
+    // Values above 1 clamped; a value below 0 or not finite is no colour: the file is wrong.
     *clamped = 0;
     uint64_t bad = 0;
-    for (auto it = grid->tree().cbeginValueOn(); it; ++it) {
-        const openvdb::Vec3s v = *it;
-        for (int c = 0; c < 3; ++c) {
-            const uint64_t voxels = it.isVoxelValue() ? 1 : it.getVoxelCount();
-            bad += !(v[c] >= 0.0f) || !std::isfinite(v[c]) ? voxels : 0;
-            const float x = std::isfinite(v[c]) ? std::clamp(v[c], 0.0f, 1.0f) : 0.0f;
-            *clamped += v[c] > 1.0f ? voxels : 0;
-            if (it.isVoxelValue())
-                trees[c].setValueOn(it.getCoord(), x);
-            else
-                trees[c].addTile(it.getLevel(), it.getCoord(), x, true);
-        }
-    }
+    auto trees = split_vec3<3>(*grid, [&](const openvdb::Vec3s& v, size_t c, uint64_t voxels) {
+        bad += !(v[c] >= 0.0f) || !std::isfinite(v[c]) ? voxels : 0;
+        *clamped += v[c] > 1.0f ? voxels : 0;
+        return std::isfinite(v[c]) ? std::clamp(v[c], 0.0f, 1.0f) : 0.0f;
+    });
     if (bad > 0)
         throw InputError(path, field,
                          "grid '" + grid_name + "' has " + std::to_string(bad) +
                              " channel values below 0 or not finite; expected colours in 0 .. 1");
-    std::array<std::unique_ptr<DensityGrid>, 3> out;
-    for (int c = 0; c < 3; ++c) {
-        out[c] = GridBuilder::build(trees[c], index_to_world, path, field,
-                                    grid_name + "[" + std::to_string(c) + "]");
-        out[c]->warnings_.clear();  // a channel's "no density" is not the medium's
-    }
-    return out;
+    return GridBuilder::build_parts(trees, index_to_world, path, field, grid_name, {"0", "1", "2"});
+}
+
+std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std::string& path,
+                                                                       const std::string& grid_name,
+                                                                       const std::string& field) {
+    DMat4 index_to_world(1.0);
+    const auto grid = read_vec3_grid(path, grid_name, field, "a velocity", &index_to_world);
+    // Part 2c + s: axis c's positive (s = 0) or negative (s = 1) part.
+    uint64_t bad = 0;
+    auto trees = split_vec3<6>(*grid, [&](const openvdb::Vec3s& v, size_t n, uint64_t voxels) {
+        const float x = v[n / 2];
+        if (!std::isfinite(x)) {
+            bad += n % 2 == 0 ? voxels : 0;
+            return 0.0f;
+        }
+        return std::max(n % 2 == 0 ? x : -x, 0.0f);
+    });
+    if (bad > 0)
+        throw InputError(path, field,
+                         "grid '" + grid_name + "' has " + std::to_string(bad) +
+                             " velocity components that are not finite; expected world units "
+                             "per second");
+    return GridBuilder::build_parts(trees, index_to_world, path, field, grid_name,
+                                    {"x+", "x-", "y+", "y-", "z+", "z-"});
 }
 
 std::unique_ptr<DensityGrid> GridBuilder::build(FloatTree& tree, const DMat4& index_to_world,

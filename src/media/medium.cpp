@@ -50,8 +50,84 @@ Medium Medium::heterogeneous(const MediumParams& params, std::shared_ptr<const D
         std::min({glm::length(Vec3(m.index_to_world_[0])), glm::length(Vec3(m.index_to_world_[1])),
                   glm::length(Vec3(m.index_to_world_[2]))});
     if (!grid->empty()) m.world_bounds_ = transform_box(m.index_to_world_, grid->index_bounds());
+    m.index_support_ = grid->index_bounds();
     m.grid_ = std::move(grid);
     return m;
+}
+
+namespace {
+
+/// `m` with each cell's max (and min) over the cells within `reach` of it along every axis, on a
+/// grid grown by `reach` cells each side (min 0 there: empty space): separable, one axis a pass.
+MajorantGrid widen(const MajorantGrid& m, int reach) {
+    MajorantGrid out;
+    out.cell = m.cell;
+    for (int a = 0; a < 3; ++a) {
+        out.origin[a] = m.origin[a] - reach * m.cell;
+        out.dims[a] = m.dims[a] + 2 * reach;
+    }
+    const size_t n = size_t(out.dims[0]) * out.dims[1] * out.dims[2];
+    out.max_density.assign(n, 0.0f);
+    out.min_density.assign(n, 0.0f);
+    for (int k = 0; k < m.dims[2]; ++k)
+        for (int j = 0; j < m.dims[1]; ++j)
+            for (int i = 0; i < m.dims[0]; ++i) {
+                const size_t at = out.index(i + reach, j + reach, k + reach);
+                out.max_density[at] = m.at(i, j, k);
+                out.min_density[at] = m.min_at(i, j, k);
+            }
+    std::vector<float> hi(n), lo(n);
+    for (int a = 0; a < 3; ++a) {
+        const size_t stride = a == 0   ? 1
+                              : a == 1 ? size_t(out.dims[0])
+                                       : size_t(out.dims[0]) * out.dims[1];
+        for (size_t c = 0; c < n; ++c) {
+            const int x = a == 0   ? int(c % out.dims[0])
+                          : a == 1 ? int((c / out.dims[0]) % out.dims[1])
+                                   : int(c / (size_t(out.dims[0]) * out.dims[1]));
+            float h = 0.0f, l = std::numeric_limits<float>::infinity();
+            for (int d = std::max(0, x - reach); d <= std::min(out.dims[a] - 1, x + reach); ++d) {
+                const size_t o = c + (ptrdiff_t(d) - x) * ptrdiff_t(stride);
+                h = std::max(h, out.max_density[o]);
+                l = std::min(l, out.min_density[o]);
+            }
+            hi[c] = h;
+            lo[c] = l;
+        }
+        out.max_density.swap(hi);
+        out.min_density.swap(lo);
+    }
+    return out;
+}
+
+}  // namespace
+
+void Medium::set_velocity(std::array<std::shared_ptr<const DensityGrid>, 6> parts,
+                          const Mat4& scene_transform, float max_seconds) {
+    velocity_ = std::move(parts);
+    world_to_velocity_index_ =
+        glm::inverse(scene_transform * to_float(velocity_[0]->index_to_world()));
+    velocity_to_world_ = Mat3(scene_transform);
+    // |v| in the grid's world, each axis's largest part; the linear map stretches it at most by
+    // its Frobenius norm.
+    double speed2 = 0.0, stretch2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        const double a =
+            std::max(velocity_[2 * c]->max_density(), velocity_[2 * c + 1]->max_density());
+        speed2 += a * a;
+        stretch2 += double(glm::dot(velocity_to_world_[c], velocity_to_world_[c]));
+    }
+    max_shift_ = float(std::sqrt(speed2 * stretch2) * max_seconds);
+    if (!(max_shift_ > 0.0f) || !grid_ || grid_->empty()) return;
+    // A lookup moves at most max_shift_: the density anywhere within it of a point bounds the
+    // point's at every time.
+    const float voxels = std::ceil(max_shift_ / voxel_world_);
+    const MajorantGrid& own = grid_->majorants();
+    moved_majorants_ = widen(own, int(std::ceil(voxels / float(own.cell))));
+    index_support_ = grid_->index_bounds();
+    index_support_.lo -= Vec3(voxels);
+    index_support_.hi += Vec3(voxels);
+    world_bounds_ = transform_box(index_to_world_, index_support_);
 }
 
 void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
@@ -83,7 +159,7 @@ void Medium::set_emission(Emission emission, const Mat4& scene_transform) {
     } else {
         if (grid_->empty()) return;
         Sampler s(*this);
-        const MajorantGrid& maj = grid_->majorants();
+        const MajorantGrid& maj = majorants();
         unit_volume_ = std::abs(double(glm::determinant(index_to_world_)));
         const Mat4 index_to_emission = world_to_emission_index_ * index_to_world_;
         // Bound of average(L_e) over the unit cell at density index `lo`: the emission voxels
@@ -178,10 +254,20 @@ Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
         emission_sampler_.emplace(*medium.emission_->grid());
     for (size_t c = 0; c < 3 && medium.colour_[c]; ++c)
         colour_sampler_[c].emplace(*medium.colour_[c]);
+    for (size_t c = 0; c < 6 && medium.velocity_[c]; ++c)
+        velocity_sampler_[c].emplace(*medium.velocity_[c]);
+}
+
+Vec3 Medium::Sampler::velocity(const Vec3& p_world) {
+    const Vec3 q = transform_point(medium_->world_to_velocity_index_, p_world);
+    const auto& v = velocity_sampler_;
+    return medium_->velocity_to_world_ * Vec3(v[0]->density(q) - v[1]->density(q),
+                                              v[2]->density(q) - v[3]->density(q),
+                                              v[4]->density(q) - v[5]->density(q));
 }
 
 Color Medium::Sampler::coloured_sigma_s(const Vec3& p_world) {
-    const Vec3 q = transform_point(medium_->world_to_colour_index_, p_world);
+    const Vec3 q = transform_point(medium_->world_to_colour_index_, moved(p_world));
     const Color colour(colour_sampler_[0]->density(q), colour_sampler_[1]->density(q),
                        colour_sampler_[2]->density(q));
     return medium_->params_.sigma_s * colour;
@@ -196,7 +282,7 @@ void Medium::set_colour(std::array<std::shared_ptr<const DensityGrid>, 3> channe
 float Medium::Sampler::density(const Vec3& p_world) {
     ++steps_;
     if (!grid_sampler_) return medium_->world_bounds_.contains(p_world) ? 1.0f : 0.0f;
-    return grid_sampler_->density(transform_point(medium_->world_to_index_, p_world));
+    return grid_sampler_->density(transform_point(medium_->world_to_index_, moved(p_world)));
 }
 
 Color Medium::Sampler::emission(const Vec3& p_world) {
@@ -204,7 +290,7 @@ Color Medium::Sampler::emission(const Vec3& p_world) {
     if (!m.emission_) return Color(0.0f);
     if (!emission_sampler_) return m.emission_->radiance_of_value(0.0f);
     return m.emission_->radiance_of_value(
-        emission_sampler_->density(transform_point(m.world_to_emission_index_, p_world)));
+        emission_sampler_->density(transform_point(m.world_to_emission_index_, moved(p_world))));
 }
 
 Vec3 Medium::Sampler::emission_point(Rng& rng, float* bound) {
@@ -221,7 +307,7 @@ Vec3 Medium::Sampler::emission_point(Rng& rng, float* bound) {
     *bound = m.unit_bounds_[unit];
     const Vec3 q(rng.uniform(), rng.uniform(), rng.uniform());
     if (!m.grid_) return m.world_bounds_.lo + q * m.world_bounds_.extent();
-    const MajorantGrid& maj = m.grid_->majorants();
+    const MajorantGrid& maj = m.majorants();
     const uint32_t n = m.emission_cells_[cell];
     const int u = m.unit_local_[unit], kC = maj.cell;
     const Vec3 cell_index(n % maj.dims[0], (n / maj.dims[0]) % maj.dims[1],
@@ -235,11 +321,14 @@ bool Medium::Sampler::sample_emission(Rng& rng, Vec3* p_world, Color* color) {
     const Medium& m = *medium_;
     if (m.emission_cells_.empty()) return false;
     float bound;
+    const float time = time_s_;
+    time_s_ = 0.0f;  // the tables bound the medium at rest
     const Vec3 p = emission_point(rng, &bound);
     const Color f = density(p) * m.params_.sigma_a * emission(p);
+    time_s_ = time;
     const float a = average(f);
     if (!(a > 0.0f) || rng.uniform() * bound >= a) return false;
-    *p_world = p;
+    *p_world = velocity_sampler_[0] && time != 0.0f ? p + velocity(p) * time : p;
     *color = f / a;
     return true;
 }
@@ -264,7 +353,7 @@ bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1, bool residu
     }
     // Heterogeneous: walk the majorant cells in index space; t is shared with world space
     // because the map is affine.
-    const MajorantGrid& maj = m.grid_->majorants();
+    const MajorantGrid& maj = m.majorants();
     const Ray r{transform_point(m.world_to_index_, ray.o),
                 transform_vector(m.world_to_index_, ray.d)};
     Box3 cells;
@@ -277,7 +366,7 @@ bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1, bool residu
     // majorant is not, and at high density (scale 1e9) that empty stretch alone costs ~1e9 null
     // collisions per ray.
     float te, tx;
-    if (!intersect_box(m.grid_->index_bounds(), r, t0, t1, &te, &tx)) return false;
+    if (!intersect_box(m.index_support_, r, t0, t1, &te, &tx)) return false;
     const Vec3 p = r.at(0.5f * (te + std::min(tx, te + 1e-3f)));  // a point inside the first cell
     for (int a = 0; a < 3; ++a) {
         const float rel = (p[a] - cells.lo[a]) / static_cast<float>(maj.cell);
@@ -304,7 +393,7 @@ bool Medium::Sampler::begin_walk(const Ray& ray, float t0, float t1, bool residu
 
 bool Medium::Sampler::next_segment() {
     if (!walking_ || seg_t1_ >= t_end_) return walking_ = false;
-    const MajorantGrid& maj = medium_->grid_->majorants();
+    const MajorantGrid& maj = medium_->majorants();
     int axis = 0;
     if (t_next_[1] < t_next_[axis]) axis = 1;
     if (t_next_[2] < t_next_[axis]) axis = 2;

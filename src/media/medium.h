@@ -11,6 +11,11 @@
 // A grid medium may carry a colour grid C (Houdini's Cd, Blender's color): the scattering's albedo
 // per channel, σ_s(x) = density·sigma_s·C(x) and σ_a(x) = density·(sigma_a + sigma_s·(1 − C(x))),
 // so σ_t, and with it every majorant and transmittance, is the colourless medium's.
+// A grid medium may carry a velocity grid v (Houdini's vel, Blender's velocity; world units per
+// second) for motion blur: a sampler set to a time Δt (seconds from the frame) looks the density,
+// colour and emission up where the fluid there was, x − v(x) Δt (Eulerian back-advection, one
+// step, as production renderers do); the majorants and bounds are widened by the farthest such
+// move, so tracking stays unbiased at every time.
 // A medium may emit (media/emission.h): σ_a(x)·L_e(x) enters the RTE, and emission sampling
 // draws points ∝ that source for photons (tables over majorant cells and then voxel cells,
 // rejection within a voxel cell).
@@ -59,6 +64,15 @@ public:
     void set_colour(std::array<std::shared_ptr<const DensityGrid>, 3> channels,
                     const Mat4& scene_transform);
 
+    /// Moves the medium by `parts` (DensityGrid::load_velocity, world units per second in its
+    /// grid's world, placed by scene_transform * its own index_to_world) for samplers set to
+    /// times within ±max_seconds: widens the majorants and bounds by the farthest move. Before
+    /// set_emission; load time only.
+    void set_velocity(std::array<std::shared_ptr<const DensityGrid>, 6> parts,
+                      const Mat4& scene_transform, float max_seconds);
+    /// The farthest a lookup moves (world units): max speed × max_seconds; 0 without velocity.
+    float max_shift() const { return max_shift_; }
+
     /// Makes the medium emit; a grid emission is placed by scene_transform * its grid's own
     /// index_to_world (the density's scene transform). Load time only.
     void set_emission(Emission emission, const Mat4& scene_transform);
@@ -77,6 +91,9 @@ public:
     public:
         explicit Sampler(const Medium& medium);
         const Medium& medium() const { return *medium_; }
+        /// The time (seconds from the frame) of the lookups that follow (0 at construction): a
+        /// medium with a velocity grid is looked up where it was then.
+        void set_time(float seconds) { time_s_ = seconds; }
         /// Density at a world point (0 outside the medium).
         float density(const Vec3& p_world);
         /// L_e at a world point (0 outside the emission grid or when the medium does not emit).
@@ -92,7 +109,9 @@ public:
         /// exact maxima of the density (trilinear: the largest of the 8 corners) times bounds of
         /// L_e from the emission voxels around the unit's image in the emission grid. True, the
         /// point and the colour σ_a L_e / average(σ_a L_e) there, or false (rejected). Draws only
-        /// from rng.
+        /// from rng. A moving medium's point is drawn at rest and carried forward by its velocity
+        /// over the sampler's time (x + v(x) Δt: exact for a uniform flow, approximate where the
+        /// flow converges or shears).
         bool sample_emission(Rng& rng, Vec3* p_world, Color* color);
         /// Starts a walk of tentative collisions of the majorant process along the ray on
         /// [t0, t1]. Returns false if the medium is not met there. With `residual`, the process
@@ -135,6 +154,15 @@ public:
         std::optional<DensityGrid::Sampler> emission_sampler_;
         std::array<std::optional<DensityGrid::Sampler>, 3> colour_sampler_;
         Color coloured_sigma_s(const Vec3& p_world);
+        /// Velocity at a world point (world units per second).
+        Vec3 velocity(const Vec3& p_world);
+        /// Where the fluid at p_world was at the sampler's time: p − v(p) Δt.
+        Vec3 moved(const Vec3& p_world) {
+            return velocity_sampler_[0] && time_s_ != 0.0f ? p_world - velocity(p_world) * time_s_
+                                                           : p_world;
+        }
+        std::array<std::optional<DensityGrid::Sampler>, 6> velocity_sampler_;
+        float time_s_ = 0.0f;
         // Walk state (index space for grids; t shared with world space). Distances are double:
         // in stiff media a step 1/σ_maj (1e-9 at density scale 1e9) is below a float's
         // resolution of t, and a float walk would stop advancing (a hang in empty space).
@@ -154,6 +182,10 @@ public:
 
 private:
     Medium() = default;
+    /// The walks' majorants: the grid's, or widened by the velocity's farthest move.
+    const MajorantGrid& majorants() const {
+        return moved_majorants_ ? *moved_majorants_ : grid_->majorants();
+    }
     MediumParams params_;
     float sigma_t_max_ = 0.0f;  ///< max channel of sigma_t()
     Box3 world_bounds_;
@@ -165,6 +197,12 @@ private:
     Mat4 world_to_emission_index_{1.0f};
     std::array<std::shared_ptr<const DensityGrid>, 3> colour_;
     Mat4 world_to_colour_index_{1.0f};
+    std::array<std::shared_ptr<const DensityGrid>, 6> velocity_;
+    Mat4 world_to_velocity_index_{1.0f};
+    Mat3 velocity_to_world_{1.0f};  ///< the scene transform's linear part
+    float max_shift_ = 0.0f;
+    std::optional<MajorantGrid> moved_majorants_;
+    Box3 index_support_;  ///< index box outside which the density is 0 at every time
     /// Emission sampling, two levels: majorant cells (index into the majorant grid; 0 for a
     /// homogeneous medium's box) with the cumulative Σ bound × volume of their units; units
     /// [emission_cell_begin_[c], emission_cell_begin_[c + 1]) of cell c: local index (x + 8y +
@@ -178,6 +216,11 @@ private:
     double unit_volume_ = 0.0;  ///< world volume of one unit (voxel; homogeneous: the box)
     double emitted_power_ = 0.0, emission_bound_power_ = 0.0;
 };
+
+/// Sets every sampler's time (Medium::Sampler::set_time).
+inline void set_time(std::vector<Medium::Sampler>& media, float seconds) {
+    for (Medium::Sampler& m : media) m.set_time(seconds);
+}
 
 enum class TrackEvent { Escaped, Scattered, Absorbed };
 

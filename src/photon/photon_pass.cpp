@@ -554,8 +554,13 @@ void PhotonPass::trace_chunk(const Job& job, std::vector<Medium::Sampler>& sampl
     const PhotonStream& st = set_.streams[job.stream];
     uint64_t steps_before = 0;
     for (const Medium::Sampler& m : samplers) steps_before += m.steps();
+    const std::optional<ShutterDesc>& shutter = scene_.camera.shutter;
     for (uint64_t i = job.begin; i < job.end; ++i) {
         Rng rng(seed_, i, st.key);
+        // The photon's time within the shutter, from a stream of its own.
+        if (shutter)
+            set_time(samplers, shutter->seconds(
+                                   Rng(derive_seed(seed_, stream::kShutter, st.key), i).uniform()));
         Ray ray;
         Color power = st.color;
         PhotonSource source;

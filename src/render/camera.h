@@ -22,6 +22,8 @@ public:
         return Ray{origin_, glm::normalize(forward_ + sx * right_ + sy * up_)};
     }
     int width() const { return desc_.width; }
+    /// Motion blur's shutter, if any.
+    const std::optional<ShutterDesc>& shutter() const { return desc_.shutter; }
     int height() const { return desc_.height; }
 
 private:

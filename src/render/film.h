@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 namespace fogmap {
@@ -77,8 +78,20 @@ inline void add_photon_delta(const Color& term, const std::array<float, kBatches
 struct PixelSample {
     int s = 0, spp = 1;
     uint64_t key = 0;
-    int x = 0, y = 0;  ///< the pixel
+    int x = 0, y = 0;   ///< the pixel
+    float time = 0.0f;  ///< seconds from the frame within the camera's shutter (0: none)
 };
+
+/// The time of sample s of a pixel's spp within `shutter`: the pixel's samples stratified over
+/// the shutter (one per spp-th, in an order shuffled per pixel), each uniform in its stratum, from
+/// a stream of their own (the samples' Rng untouched).
+inline float shutter_time(const ShutterDesc& shutter, int s, int spp, uint64_t seed,
+                          uint64_t pixel) {
+    const uint64_t key = derive_seed(seed, stream::kShutter, pixel);
+    const uint32_t stratum = permute(static_cast<uint32_t>(s), static_cast<uint32_t>(spp), key);
+    const float u = Rng(key, static_cast<uint64_t>(s)).uniform();
+    return shutter.seconds(std::min((float(stratum) + u) / float(spp), 1.0f));
+}
 
 struct RenderStats {
     double render_s = 0.0;   ///< wall time of the render pass
@@ -287,6 +300,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
                  PhotonParts photon_parts, int unit, bool quiet, RenderStats* stats,
                  MakeState&& make_state, Trace&& trace) {
     const int w = camera.width(), h = camera.height();
+    const std::optional<ShutterDesc>& shutter = camera.shutter();
     Film film(w, h, layered);
     const bool photon_batches = photon_parts != PhotonParts::None,
                bias = photon_parts == PhotonParts::NoiseAndBias;
@@ -307,8 +321,9 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         for (int s = 0; s < spp; ++s) {
             Rng rng(seed, pixel, static_cast<uint64_t>(s));
             const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
-            const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state,
-                                       PixelSample{s, spp, jitter_key, x, y});
+            PixelSample ps{s, spp, jitter_key, x, y};
+            if (shutter) ps.time = shutter_time(*shutter, s, spp, seed, pixel);
+            const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state, ps);
             const Color beauty = layered ? c.layer_sum() : c.beauty;
             if (!is_finite(beauty)) {
                 ++dropped;

@@ -523,6 +523,7 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
             return ts;
         },
         [&](const Ray& ray, Rng& rng, PathTracer::ThreadState& ts, const PixelSample& ps) {
+            set_time(ts.media, ps.time);
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
             sample.layers = ts.layers;

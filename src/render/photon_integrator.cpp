@@ -238,6 +238,7 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
         map_step(settings.spp, settings.map_spp), quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
+            set_time(ts.media, ps.time);
             return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));
         });
 }

@@ -506,15 +506,19 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
             end->set_table(&*sigma_table_);
         }
     }
-    if (!sun_shadows_) {
-        sun_shadows_.emplace(scene_.lights, scene_.media, desc_.volume.sun_grid);
-        report_.precompute_nodes += sun_shadows_->nodes();
+    // Moving media's shadows change within the shutter: shadow rays then, at the sample's time.
+    const SunShadows* sun = nullptr;
+    if (!media_move(scene_)) {
+        if (!sun_shadows_) {
+            sun_shadows_.emplace(scene_.lights, scene_.media, desc_.volume.sun_grid);
+            report_.precompute_nodes += sun_shadows_->nodes();
+        }
+        sun = &*sun_shadows_;
     }
     add_phase(&report_, "precompute", precompute.seconds());
-    return render_path(
-        scene_, settings, quiet_pass_, stats,
-        end ? PathPolicy::end_in_map(*end, &*sun_shadows_) : PathPolicy::plain(&*sun_shadows_),
-        setup_.tiles, /*layered=*/true);
+    return render_path(scene_, settings, quiet_pass_, stats,
+                       end ? PathPolicy::end_in_map(*end, sun) : PathPolicy::plain(sun),
+                       setup_.tiles, /*layered=*/true);
 }
 
 /// Iteration i: the photon pass where the method has maps, then the method's render.

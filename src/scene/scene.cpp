@@ -134,6 +134,27 @@ void attach_colour(const SceneDesc& desc, size_t i, const std::string& path, Med
                             "scatter more light than reaches it)");
 }
 
+/// Medium i's velocity grid (its velocity_grid) for the camera's shutter: a velocity that moves the
+/// medium farther than its own extent in one frame is refused (most likely other units).
+void attach_velocity(const SceneDesc& desc, size_t i, const std::string& path, Medium* medium) {
+    const MediumDesc& m = desc.media[i];
+    const std::string field = "/media/" + std::to_string(i) + "/velocity_grid";
+    const ShutterDesc& shutter = *desc.camera.shutter;
+    const float frames = std::max(std::abs(shutter.open), std::abs(shutter.close));
+    const double extent = double(glm::length(medium->world_bounds().extent()));
+    auto parts = DensityGrid::load_velocity(path, m.velocity_grid, field);
+    medium->set_velocity({std::move(parts[0]), std::move(parts[1]), std::move(parts[2]),
+                          std::move(parts[3]), std::move(parts[4]), std::move(parts[5])},
+                         m.transform.matrix, frames / shutter.fps);
+    const double per_frame = frames > 0.0f ? double(medium->max_shift()) / frames : 0.0;
+    if (!medium->world_bounds().empty() && per_frame > extent)
+        throw InputError(path, field,
+                         "grid '" + m.velocity_grid + "' moves the medium up to " +
+                             g_text(per_frame) + " world units a frame (at camera.shutter.fps " +
+                             g_text(shutter.fps) + "), more than its extent, " + g_text(extent) +
+                             "; expected world units per second");
+}
+
 /// The first of kEmissionGridNames that `names` holds, or "".
 std::string find_emission_grid(const std::vector<std::string>& names) {
     for (const char* want : kEmissionGridNames)
@@ -230,6 +251,11 @@ std::string attach_emission(const SceneDesc& desc, size_t i, const std::string& 
 }
 
 }  // namespace
+
+bool media_move(const Scene& scene) {
+    return std::any_of(scene.media.begin(), scene.media.end(),
+                       [](const Medium& m) { return m.max_shift() > 0.0f; });
+}
 
 std::string resolve(const SceneDesc& desc, const std::string& file) {
     const std::filesystem::path p(file);
@@ -329,6 +355,12 @@ std::unique_ptr<Scene> load_scene(const SceneDesc& desc) {
         scene->media.push_back(Medium::heterogeneous(medium_params(m), grid, m.transform.matrix));
         if (!m.color_grid.empty())
             attach_colour(desc, i, path, &scene->media.back(), &scene->warnings);
+        if (!m.velocity_grid.empty() && desc.camera.shutter)
+            attach_velocity(desc, i, path, &scene->media.back());
+        else if (!m.velocity_grid.empty())
+            scene->warnings.push_back("media." + std::to_string(i) + ".velocity_grid '" +
+                                      m.velocity_grid +
+                                      "' is not read: without camera.shutter nothing moves");
         if (m.emission) {
             emitters[i] =
                 attach_emission(desc, i, path, &grids, &scene->media.back(), &scene->warnings);

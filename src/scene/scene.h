@@ -40,6 +40,9 @@ struct Scene {
 /// to the scene file's folder.
 std::string resolve(const SceneDesc& desc, const std::string& file);
 
+/// Whether a medium moves within the camera's shutter (a velocity grid and a shutter).
+bool media_move(const Scene& scene);
+
 /// Σ over media of emitted_power (W).
 double emitted_power(const Scene& scene);
 

@@ -22,6 +22,16 @@ struct TransformDesc {
     Mat4 matrix{1.0f};
 };
 
+/// A camera's shutter for motion blur by the media's velocity grids: open and close in frames
+/// around the frame (each in [-1, 1], open <= close), at fps frames per second (velocity grids are
+/// in world units per second, as Houdini and Blender write them).
+struct ShutterDesc {
+    float open = -0.25f, close = 0.25f;  ///< frames; a 180° shutter centred on the frame
+    float fps = 24.0f;
+    /// The time, seconds from the frame, at fraction u in [0, 1] of the shutter's interval.
+    float seconds(float u) const { return (open + u * (close - open)) / fps; }
+};
+
 struct CameraDesc {
     Vec3 position{0.0f, 1.0f, 5.0f};  ///< world units
     Vec3 look_at{0.0f, 1.0f, 0.0f};
@@ -29,6 +39,8 @@ struct CameraDesc {
     float fov_deg = 40.0f;  ///< vertical field of view, degrees, in (0, 180)
     int width = 640;        ///< pixels, >= 1
     int height = 360;       ///< pixels, >= 1
+    /// absent: no motion blur (a medium's velocity grid is then not read)
+    std::optional<ShutterDesc> shutter;
 };
 
 enum class LightType { Point, Spot, Quad, Sun, Environment };
@@ -90,6 +102,7 @@ struct MediumDesc {
     std::string file;              ///< vdb: path relative to the scene file
     std::string grid = "density";  ///< vdb: name of a float grid
     std::string color_grid;        ///< vdb: a vec3s grid, the scattering's albedo per channel
+    std::string velocity_grid;     ///< vdb: a vec3s grid, world units per second (motion blur)
     TransformDesc transform;       ///< vdb: scene transform applied after the grid's own
     float density_scale = 1.0f;    ///< multiplies the grid values (>= 0)
     Color sigma_s{1.0f};           ///< scattering coefficient per unit density, 1/world unit

@@ -42,6 +42,13 @@ constexpr std::array<FreePathMethod, 2> kFreePathMethods{FreePathMethod::March,
 // type accepts and the keys to_json writes cannot drift apart. The `type` key is handled by the
 // callers because it selects the list; other enums go through `choice` with their string table.
 
+template <class S, class V>
+void shutter_fields(S& s, V& v) {
+    v.value("open", s.open);
+    v.value("close", s.close);
+    v.value("fps", s.fps);
+}
+
 template <class C, class V>
 void camera_fields(C& c, V& v) {
     v.vec3("position", c.position);
@@ -50,6 +57,7 @@ void camera_fields(C& c, V& v) {
     v.value("fov_deg", c.fov_deg);
     v.value("width", c.width);
     v.value("height", c.height);
+    v.object("shutter", c.shutter, [](auto& s, auto& f) { shutter_fields(s, f); });
 }
 
 template <class L, class V>
@@ -137,6 +145,7 @@ void medium_fields(M& m, V& v) {
             v.value("file", m.file);
             v.value("grid", m.grid);
             v.value("color_grid", m.color_grid);
+            v.value("velocity_grid", m.velocity_grid);
             v.transform("transform", m.transform);
             break;
         case MediumType::Homogeneous:

@@ -251,6 +251,21 @@ void check_camera(const SceneDesc& desc) {
     k.int_range("width", c.width, 1, kMaxResolution);
     k.int_range("height", c.height, 1, kMaxResolution);
     k.range("fov_deg", c.fov_deg, 0.0f, 180.0f, true);
+    if (c.shutter) {
+        const Checker s(desc, "/camera/shutter");
+        for (const auto& [key, frames] :
+             {std::pair{"open", c.shutter->open}, std::pair{"close", c.shutter->close}})
+            if (!(frames >= -1.0f && frames <= 1.0f))
+                s.fail(key, std::string(key) +
+                                " must be in [-1, 1] frames around the frame; found " +
+                                num(frames));
+        if (c.shutter->open > c.shutter->close)
+            s.fail("close", "close " + num(c.shutter->close) + " is before open " +
+                                num(c.shutter->open) + "; expected open <= close");
+        if (!(c.shutter->fps > 0.0f && c.shutter->fps <= 1e6f))
+            s.fail("fps",
+                   "fps must be in (0, 1e6] frames per second; found " + num(c.shutter->fps));
+    }
     k.world_point("position", c.position);
     k.world_point("look_at", c.look_at);
     k.non_zero("up", c.up);

@@ -62,6 +62,12 @@ const GridInfo* colour_grid(const std::vector<GridInfo>& grids) {
     return nullptr;
 }
 
+const GridInfo* velocity_grid(const std::vector<GridInfo>& grids) {
+    for (const GridInfo& g : grids)
+        if (g.value_type == "vec3s" && named(g, {"vel", "velocity", "v"})) return &g;
+    return nullptr;
+}
+
 const GridInfo* emission_grid(const std::vector<GridInfo>& grids) {
     for (const char* name : kEmissionGridNames)
         for (const GridInfo& g : grids)
@@ -102,7 +108,7 @@ nlohmann::json emission_json(const GridInfo& g) {
 constexpr double kDepthAcross = 10.0;
 
 nlohmann::json medium_json(const std::string& file, const GridInfo& density, const GridInfo* colour,
-                           const GridInfo* emission) {
+                           const GridInfo* velocity, const GridInfo* emission) {
     const Vec3 e = density.world_bounds.hi - density.world_bounds.lo;
     const double across = std::cbrt(std::max(double(e.x) * e.y * e.z, 1e-30));
     const double top = density.max_value > 0.0 ? density.max_value : 1.0;
@@ -114,6 +120,7 @@ nlohmann::json medium_json(const std::string& file, const GridInfo& density, con
                         {"sigma_a", 0.07},
                         {"g", 0.3}};
     if (colour) m["color_grid"] = colour->name;
+    if (velocity) m["velocity_grid"] = velocity->name;
     if (emission) m["emission"] = emission_json(*emission);
     return m;
 }
@@ -164,6 +171,7 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
     const GridInfo* density = density_grid(grids);
     const GridInfo* emission = emission_grid(grids);
     const GridInfo* colour = colour_grid(grids);
+    const GridInfo* velocity = velocity_grid(grids);
     std::vector<std::string> uses;
     for (const GridInfo& g : grids) {
         const std::string base = lower(g.name.substr(0, g.name.find('.')));
@@ -175,8 +183,10 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
             uses.push_back("colour (the scattering's albedo per channel)");
         else if (base == "cd" || base == "color" || base == "colour")
             uses.push_back("not used: a colour grid is read from a vec3s grid");
+        else if (&g == velocity)
+            uses.push_back("velocity (motion blur over camera.shutter)");
         else if (base == "vel" || base == "velocity" || base == "v")
-            uses.push_back("not used: velocity motion blur is not supported yet");
+            uses.push_back("not used: a velocity grid is read from one vec3s grid");
         else
             uses.push_back("not used");
     }
@@ -206,23 +216,27 @@ nlohmann::json vdb_scene_json(const std::string& file, int frame) {
     const Box3& b = density->world_bounds;
     const Vec3 c = 0.5f * (b.lo + b.hi);
     const float half = 50.0f * glm::length(b.hi - b.lo);
-    nlohmann::json scene = {
-        {"camera", camera_json(b)},
-        {"lights",
-         {{{"type", "sun"},
-           {"direction", {-0.55, -0.75, -0.35}},
-           {"irradiance", {3.2, 3.0, 2.7}},
-           {"angular_radius_deg", 0.27}},
-          {{"type", "environment"}, {"radiance", {0.16, 0.2, 0.28}}}}},
-        {"materials", {{"ground", {{"type", "diffuse"}, {"albedo", 0.5}}}}},
-        {"shapes",
-         {{{"type", "quad"},
-           {"corner", point(Vec3(c.x - half, b.lo.y, c.z - half))},
-           {"edge_u", {0, 0, num(2.0f * half)}},
-           {"edge_v", {num(2.0f * half), 0, 0}},
-           {"material", "ground"}}}},
-        {"media", {medium_json(file, *density, colour_grid(grids), emission_grid(grids))}},
-        {"render", {{"spp", 16}}}};
+    nlohmann::json scene = {{"camera", camera_json(b)},
+                            {"lights",
+                             {{{"type", "sun"},
+                               {"direction", {-0.55, -0.75, -0.35}},
+                               {"irradiance", {3.2, 3.0, 2.7}},
+                               {"angular_radius_deg", 0.27}},
+                              {{"type", "environment"}, {"radiance", {0.16, 0.2, 0.28}}}}},
+                            {"materials", {{"ground", {{"type", "diffuse"}, {"albedo", 0.5}}}}},
+                            {"shapes",
+                             {{{"type", "quad"},
+                               {"corner", point(Vec3(c.x - half, b.lo.y, c.z - half))},
+                               {"edge_u", {0, 0, num(2.0f * half)}},
+                               {"edge_v", {num(2.0f * half), 0, 0}},
+                               {"material", "ground"}}}},
+                            {"media",
+                             {medium_json(file, *density, colour_grid(grids), velocity_grid(grids),
+                                          emission_grid(grids))}},
+                            {"render", {{"spp", 16}}}};
+    // A 180° shutter at 24 frames per second, centred on the frame.
+    if (velocity_grid(grids))
+        scene["camera"]["shutter"] = {{"open", -0.25}, {"close", 0.25}, {"fps", 24}};
     return scene;
 }
 
