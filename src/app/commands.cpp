@@ -539,6 +539,8 @@ int dry_run(const RenderArgs& args, const RenderJob& job) {
         const std::string file = resolve(job.desc, expand_frame(medium.file, frame));
         std::vector<std::pair<std::string, int>> read = {{medium.grid, 1}};
         if (!medium.color_grid.empty()) read.push_back({medium.color_grid, 3});
+        if (!medium.velocity_grid.empty() && job.desc.camera.shutter)
+            read.push_back({medium.velocity_grid, 6});  // at most: a part that is 0 is small
         if (medium.emission && !medium.emission->grid.empty())
             read.push_back({medium.emission->grid, 1});
         for (const auto& [grid, samplers] : read) {
@@ -755,6 +757,10 @@ int run_volume(const VolumeArgs& args) {
     s.resolution = args.resolution;
     s.voxel_size = args.voxel_size;
     s.seed = args.seed;
+    if (args.velocity && s.shape == VolumeShape::Cloud)
+        throw InputError("", "--velocity",
+                         "the cloud does not move; expected plume or fireball (or no --velocity)");
+    s.velocity = args.velocity;
     if (args.frames.empty()) {
         if (has_frame_pattern(args.output))
             throw InputError("", "-o",

@@ -49,6 +49,7 @@ struct VolumeArgs {
     float voxel_size = 0.05f;
     uint64_t seed = 1;
     std::string frames;  ///< --frames FIRST-LAST[:STEP]: a time-varying sequence; "" = one grid
+    bool velocity = false;  ///< --velocity: plume and fireball also write their "vel" grid
 };
 
 int run_volume(const VolumeArgs& args);

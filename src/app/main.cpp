@@ -130,6 +130,9 @@ int main(int argc, char** argv) {
     vol->add_option("--resolution", volume.resolution, "voxels along the longest axis");
     vol->add_option("--voxel-size", volume.voxel_size, "world units per voxel");
     vol->add_option("--seed", volume.seed, "noise seed")->check(seed_check());
+    vol->add_flag("--velocity", volume.velocity,
+                  "plume, fireball: also write a vec3s grid vel, the sequence's rising motion in "
+                  "world units per second at 24 frames per second (for camera.shutter)");
     vol->add_option("--frames", volume.frames,
                     "FIRST-LAST[:STEP]: a time-varying sequence; -o holds a frame pattern (####)");
 

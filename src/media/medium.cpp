@@ -255,15 +255,19 @@ Medium::Sampler::Sampler(const Medium& medium) : medium_(&medium) {
     for (size_t c = 0; c < 3 && medium.colour_[c]; ++c)
         colour_sampler_[c].emplace(*medium.colour_[c]);
     for (size_t c = 0; c < 6 && medium.velocity_[c]; ++c)
-        velocity_sampler_[c].emplace(*medium.velocity_[c]);
+        if (medium.velocity_[c]->max_density() > 0.0f) {
+            velocity_sampler_[c].emplace(*medium.velocity_[c]);
+            moving_ = true;
+        }
 }
 
 Vec3 Medium::Sampler::velocity(const Vec3& p_world) {
     const Vec3 q = transform_point(medium_->world_to_velocity_index_, p_world);
-    const auto& v = velocity_sampler_;
-    return medium_->velocity_to_world_ * Vec3(v[0]->density(q) - v[1]->density(q),
-                                              v[2]->density(q) - v[3]->density(q),
-                                              v[4]->density(q) - v[5]->density(q));
+    Vec3 v(0.0f);
+    for (int c = 0; c < 6; ++c)
+        if (velocity_sampler_[size_t(c)])
+            v[c / 2] += (c % 2 ? -1.0f : 1.0f) * velocity_sampler_[size_t(c)]->density(q);
+    return medium_->velocity_to_world_ * v;
 }
 
 Color Medium::Sampler::coloured_sigma_s(const Vec3& p_world) {
@@ -328,7 +332,7 @@ bool Medium::Sampler::sample_emission(Rng& rng, Vec3* p_world, Color* color) {
     time_s_ = time;
     const float a = average(f);
     if (!(a > 0.0f) || rng.uniform() * bound >= a) return false;
-    *p_world = velocity_sampler_[0] && time != 0.0f ? p + velocity(p) * time : p;
+    *p_world = moving_ && time != 0.0f ? p + velocity(p) * time : p;
     *color = f / a;
     return true;
 }

@@ -157,11 +157,22 @@ public:
         /// Velocity at a world point (world units per second).
         Vec3 velocity(const Vec3& p_world);
         /// Where the fluid at p_world was at the sampler's time: p − v(p) Δt.
+        /// The last point asked for is kept: density, colour and emission at one point look the
+        /// velocity up once.
         Vec3 moved(const Vec3& p_world) {
-            return velocity_sampler_[0] && time_s_ != 0.0f ? p_world - velocity(p_world) * time_s_
-                                                           : p_world;
+            if (!moving_ || time_s_ == 0.0f) return p_world;
+            if (p_world != moved_from_ || time_s_ != moved_time_) {
+                moved_from_ = p_world;
+                moved_time_ = time_s_;
+                moved_to_ = p_world - velocity(p_world) * time_s_;
+            }
+            return moved_to_;
         }
+        Vec3 moved_from_{kInfinity}, moved_to_{0.0f};
+        float moved_time_ = 0.0f;
+        /// The velocity's parts that are not 0 everywhere (the others are not looked up).
         std::array<std::optional<DensityGrid::Sampler>, 6> velocity_sampler_;
+        bool moving_ = false;  ///< some part is not 0
         float time_s_ = 0.0f;
         // Walk state (index space for grids; t shared with world space). Distances are double:
         // in stiff media a step 1/σ_maj (1e-9 at density scale 1e9) is below a float's

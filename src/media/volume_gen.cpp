@@ -6,6 +6,7 @@
 #include "media/vdb_probe.h"
 
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Morphology.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -235,13 +236,36 @@ Slab make_slab(const VolumeGenSettings& settings, const Noise& noise, int k0, in
     return slab;
 }
 
+/// The noise's rise per frame, in its own units.
+constexpr float kDrift = 0.15f;
+
+/// The plume's eddies rise with the noise: its main octaves are read at y × 5 / resolution
+/// (plume_density), so kDrift / 5 resolutions a frame; that speed in world units per second at
+/// kVelocityFps, upward, over the density's voxels and 2 around them (a lookup just outside the
+/// smoke moves too).
+openvdb::Vec3SGrid::Ptr rise_velocity(const openvdb::FloatGrid& density,
+                                      const VolumeGenSettings& settings) {
+    const float speed = kDrift / 5.0f * float(std::max(settings.resolution, 8)) *
+                        settings.voxel_size * kVelocityFps;
+    openvdb::Vec3SGrid::Ptr vel = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+    vel->tree().topologyUnion(density.tree());
+    openvdb::tools::dilateActiveValues(vel->tree(), 2, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                       openvdb::tools::IGNORE_TILES);
+    for (auto it = vel->tree().beginValueOn(); it; ++it)
+        it.setValue(openvdb::Vec3s(0.0f, speed, 0.0f));
+    vel->setName("vel");
+    vel->setTransform(density.transform().copy());
+    vel->setSaveFloatAsHalf(true);
+    return vel;
+}
+
 }  // namespace
 
 void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
     init_openvdb();
     const int res = std::max(settings.resolution, 8);
-    // A sequence's frames: the noise rises by 0.15 units a frame (about a plume's eddy in 7).
-    const Noise noise(settings.seed, Vec3(0.0f, 0.15f * settings.time, 0.0f));
+    // A sequence's frames: the noise rises by kDrift units a frame (about a plume's eddy in 7).
+    const Noise noise(settings.seed, Vec3(0.0f, kDrift * settings.time, 0.0f));
     const bool fire = settings.shape == VolumeShape::Fireball;
     const int zh = settings.shape != VolumeShape::Cloud ? res / 2 : static_cast<int>(0.4f * res);
     // Slabs of one leaf's depth (8 voxels along k, leaf-aligned), merged in k order: the grid
@@ -272,6 +296,8 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
         temperature->setSaveFloatAsHalf(true);
         grids.push_back(temperature);
     }
+    if (settings.velocity && settings.shape != VolumeShape::Cloud)
+        grids.push_back(rise_velocity(*grid, settings));
     write_grids_atomic(grids, path);
 }
 

@@ -21,12 +21,18 @@ struct VolumeGenSettings {
     float voxel_size = 0.05f;  ///< world units per voxel
     uint64_t seed = 1;         ///< noise seed
     float time = 0.0f;         ///< frame of a sequence: the noise field drifts upward with it
+    /// Plume and fireball: also a vec3s grid "vel", the velocity of that drift in world units per
+    /// second at kVelocityFps (uniform, over the density's voxels and 2 around them).
+    bool velocity = false;
 };
+
+/// The frame rate the generated "vel" grid assumes (camera.shutter.fps's default).
+inline constexpr float kVelocityFps = 24.0f;
 
 /// Writes a procedural cloud (billowy fBm blob), plume (rising, widening, turbulent column) or
 /// fireball (a billowing hot core, up to ~2500 K, under a rising column of smoke that cools
-/// with height to ~600 K; density and temperature grids). Throws std::runtime_error naming the
-/// path on I/O failure.
+/// with height to ~600 K; density and temperature grids), with settings.velocity their motion.
+/// Throws std::runtime_error naming the path on I/O failure.
 void generate_volume(const VolumeGenSettings& settings, const std::string& path);
 
 /// A float grid "name" whose voxel (i,j,k) for 0 <= i < nx, ... holds value(i,j,k) (zero values

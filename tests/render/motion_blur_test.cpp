@@ -29,7 +29,7 @@ using namespace test;
 constexpr double kVoxel = 0.05;  ///< world units
 constexpr int kBox = 20;         ///< voxels along each axis: a unit box from x = 0, centred in y, z
 constexpr float kSigma = 2.0f;   ///< sigma_a per unit density
-constexpr float kSpeed = 1.0f;   ///< world units per second along +x
+constexpr float kSpeed = 1.0f;   ///< world units per second, along +x or -x
 
 /// The box's density profile along x at world x: 1 between the first and last voxel centres (0
 /// and (kBox - 1) h), ramping linearly to 0 one voxel beyond them.
@@ -41,8 +41,10 @@ double profile(double x) {
     return 1.0;
 }
 
-/// Writes the box (density 1) and a uniform velocity grid covering every place it reaches.
-std::string write_moving_box(const TempDir& dir, const char* velocity_type = "vec3s") {
+/// Writes the box (density 1) and a uniform velocity grid (speed along x) covering every place
+/// it reaches.
+std::string write_moving_box(const TempDir& dir, float speed = kSpeed,
+                             const char* velocity_type = "vec3s") {
     openvdb::initialize();
     auto density = openvdb::FloatGrid::create(0.0f);
     for (int i = 0; i < kBox; ++i)
@@ -52,17 +54,17 @@ std::string write_moving_box(const TempDir& dir, const char* velocity_type = "ve
     density->setName("density");
     density->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
     openvdb::GridPtrVec grids{density};
-    const openvdb::CoordBBox region(openvdb::Coord(-2 * kBox, -kBox, -kBox),
+    const openvdb::CoordBBox region(openvdb::Coord(-3 * kBox, -kBox, -kBox),
                                     openvdb::Coord(3 * kBox, kBox, kBox));
     if (std::string(velocity_type) == "vec3s") {
         auto vel = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
-        vel->tree().fill(region, openvdb::Vec3s(kSpeed, 0.0f, 0.0f), true);
+        vel->tree().fill(region, openvdb::Vec3s(speed, 0.0f, 0.0f), true);
         vel->setName("vel");
         vel->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
         grids.push_back(vel);
     } else {
         auto vel = openvdb::FloatGrid::create(0.0f);
-        vel->tree().fill(region, kSpeed, true);
+        vel->tree().fill(region, speed, true);
         vel->setName("vel");
         vel->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
         grids.push_back(vel);
@@ -72,13 +74,13 @@ std::string write_moving_box(const TempDir& dir, const char* velocity_type = "ve
     return file;
 }
 
-/// 60 x 20 pixels over x in [-0.5, 2.5], y in [-0.5, 0.5], looking down -z from z = 400 (rays
-/// drift by under 0.004 in x through the box); the sky's radiance 1; shutter [0, 1] frame at
-/// 1 frame per second, so the box moves by kSpeed t for t in [0, 1] s.
-SceneDesc moving_box_scene(const std::string& file, Integrator integrator) {
+/// 60 x 20 pixels over x in [centre - 1.5, centre + 1.5], y in [-0.5, 0.5], looking down -z from
+/// z = 400 (rays drift by under 0.004 in x through the box); the sky's radiance 1; shutter [0, 1]
+/// frame at 1 frame per second, so the box moves by v t for t in [0, 1] s.
+SceneDesc moving_box_scene(const std::string& file, Integrator integrator, float centre = 1.0f) {
     SceneDesc d;
-    d.camera.position = Vec3(1.0f, 0.0f, 400.0f);
-    d.camera.look_at = Vec3(1.0f, 0.0f, 0.0f);
+    d.camera.position = Vec3(centre, 0.0f, 400.0f);
+    d.camera.look_at = Vec3(centre, 0.0f, 0.0f);
     d.camera.width = 60;
     d.camera.height = 20;
     d.camera.fov_deg = float(2.0 * std::atan(0.5 / 400.0) * 180.0 / 3.14159265358979);
@@ -96,17 +98,17 @@ SceneDesc moving_box_scene(const std::string& file, Integrator integrator) {
     return d;
 }
 
-/// The expected value of pixel column c: exp(-sigma * profile(x - v t) * depth) over the column's
-/// x and the shutter's t (midpoint rule, 200 x 400 points); depth: the box's z extent, whose
-/// profile integrates to kBox voxels.
-double expected_column(int c, double shift_s) {
-    const double x0 = -0.5 + 3.0 * c / 60.0, depth = kBox * kVoxel;
+/// The expected value of pixel column c of a camera centred on `centre`: exp(-sigma * profile(x -
+/// v t) * depth) over the column's x and the shutter's t (midpoint rule, 200 x 400 points); depth:
+/// the box's z extent, whose profile integrates to kBox voxels.
+double expected_column(int c, double shift_s, double speed = kSpeed, double centre = 1.0) {
+    const double x0 = centre - 1.5 + 3.0 * c / 60.0, depth = kBox * kVoxel;
     double sum = 0.0;
     constexpr int kX = 200, kT = 400;
     for (int a = 0; a < kX; ++a)
         for (int b = 0; b < kT; ++b) {
             const double x = x0 + 0.05 * (a + 0.5) / kX, t = shift_s * (b + 0.5) / kT;
-            sum += std::exp(-kSigma * profile(x - kSpeed * t) * depth);
+            sum += std::exp(-kSigma * profile(x - speed * t) * depth);
         }
     return sum / (kX * kT);
 }
@@ -123,21 +125,26 @@ std::vector<double> column_means(const Image& img) {
 
 TEST(MotionBlur, AMovingBoxHasItsTimeAveragedTransmittance) {
     const TempDir dir("motion_box");
-    const std::string file = write_moving_box(dir);
-    for (const Integrator integrator : {Integrator::Path, Integrator::Photon}) {
-        SCOPED_TRACE(integrator == Integrator::Path ? "path" : "photon");
-        const Image img = run_pipeline(moving_box_scene(file, integrator), true).film.beauty;
-        const std::vector<double> got = column_means(img);
-        int blurred = 0;
-        for (int c = 0; c < 60; ++c) {
-            const double want = expected_column(c, 1.0);
-            // A sample is 0 or 1 (delta tracking) or exact (marching): binomial noise at most.
-            const double sd = std::sqrt(want * (1.0 - want) / (12.0 * 256.0));
-            EXPECT_NEAR(got[size_t(c)], want, 5.0 * sd + 2e-3) << "column " << c;
-            blurred += want > 0.2 && want < 0.9 ? 1 : 0;  // neither clear sky nor e^-2
+    // Along +x, then along -x (the velocity's negative parts), the camera following the box.
+    for (const float speed : {kSpeed, -kSpeed})
+        for (const Integrator integrator : {Integrator::Path, Integrator::Photon}) {
+            SCOPED_TRACE((integrator == Integrator::Path ? "path, v " : "photon, v ") +
+                         std::to_string(speed));
+            const float centre = speed > 0.0f ? 1.0f : 0.0f;
+            const std::string file = write_moving_box(dir, speed);
+            const Image img =
+                run_pipeline(moving_box_scene(file, integrator, centre), true).film.beauty;
+            const std::vector<double> got = column_means(img);
+            int blurred = 0;
+            for (int c = 0; c < 60; ++c) {
+                const double want = expected_column(c, 1.0, speed, centre);
+                // A sample is 0 or 1 (delta tracking) or exact (marching): binomial noise at most.
+                const double sd = std::sqrt(want * (1.0 - want) / (12.0 * 256.0));
+                EXPECT_NEAR(got[size_t(c)], want, 5.0 * sd + 2e-3) << "column " << c;
+                blurred += want > 0.2 && want < 0.9 ? 1 : 0;  // neither clear sky nor e^-2
+            }
+            EXPECT_GE(blurred, 30) << "the box's motion blurs most columns: " << blurred;
         }
-        EXPECT_GE(blurred, 30) << "the box's motion blurs most columns: " << blurred;
-    }
 }
 
 TEST(MotionBlur, WithoutAShutterTheBoxStandsStill) {
@@ -156,7 +163,7 @@ TEST(MotionBlur, WithoutAShutterTheBoxStandsStill) {
 TEST(MotionBlur, BadVelocityGridsAndShuttersAreRefusedByField) {
     const TempDir dir("motion_bad");
     {
-        SceneDesc d = moving_box_scene(write_moving_box(dir, "float"), Integrator::Path);
+        SceneDesc d = moving_box_scene(write_moving_box(dir, kSpeed, "float"), Integrator::Path);
         const InputError e = catch_input_error([&] { load_scene(d); });
         EXPECT_EQ(e.field, "/media/0/velocity_grid") << e.what();
         EXPECT_NE(e.reason.find("expected a vec3s grid"), std::string::npos) << e.what();
