@@ -566,6 +566,13 @@ int dry_run(const RenderArgs& args, const RenderJob& job) {
     std::cout << (job.range ? ", per frame of " + std::to_string(job.range->frames().size())
                             : std::string())
               << "\n";
+    if (const std::optional<TileShare> part = parse_part(args.part))
+        std::cout << "part " << args.part << ": "
+                  << (setup.progressive ? "every " + std::to_string(part->count) + "th iteration"
+                                        : "every " + std::to_string(part->count) +
+                                              "th 16x16 tile and every photon round")
+                  << " (about 1/" << part->count
+                  << " of the camera samples), with the whole film in memory\n";
     return 0;
 }
 
