@@ -69,23 +69,25 @@ void expect_same_run(const std::string& path, const PartRun& run, const std::str
 std::vector<std::pair<std::string, PartRun>> check_parts(const std::vector<std::string>& paths) {
     std::vector<std::pair<std::string, PartRun>> runs;
     for (const std::string& path : paths) runs.emplace_back(path, read_part_run(path));
-    const auto& [first_path, first] = runs.front();
-    for (const auto& [path, run] : runs) expect_same_run(path, run, first_path, first);
+    const std::string first_path = runs.front().first;  // as given: the others are checked by it
+    const int count = runs.front().second.count;
+    for (const auto& [path, run] : runs)
+        expect_same_run(path, run, first_path, runs.front().second);
     std::stable_sort(runs.begin(), runs.end(),
                      [](const auto& a, const auto& b) { return a.second.index < b.second.index; });
     for (size_t k = 1; k < runs.size(); ++k)
         if (runs[k].second.index == runs[k - 1].second.index)
             throw InputError(runs[k].first, "part",
                              "part " + std::to_string(runs[k].second.index) + " of " +
-                                 std::to_string(first.count) + ", as " + runs[k - 1].first +
+                                 std::to_string(count) + ", as " + runs[k - 1].first +
                                  " is: expected each part once");
-    for (int i = 1; i <= first.count; ++i)
+    for (int i = 1; i <= count; ++i)
         if (size_t(i) > runs.size() || runs[size_t(i) - 1].second.index != i)
             throw InputError(first_path, "parts",
-                             "part " + std::to_string(i) + " of " + std::to_string(first.count) +
+                             "part " + std::to_string(i) + " of " + std::to_string(count) +
                                  " is missing (" + std::to_string(runs.size()) +
                                  " part files given); expected one file of each part, 1 to " +
-                                 std::to_string(first.count));
+                                 std::to_string(count));
     return runs;
 }
 
