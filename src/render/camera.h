@@ -22,9 +22,9 @@ public:
         return Ray{origin_, glm::normalize(forward_ + sx * right_ + sy * up_)};
     }
     int width() const { return desc_.width; }
+    int height() const { return desc_.height; }
     /// Motion blur's shutter, if any.
     const std::optional<ShutterDesc>& shutter() const { return desc_.shutter; }
-    int height() const { return desc_.height; }
 
 private:
     CameraDesc desc_;
