@@ -477,6 +477,15 @@ openvdb::Vec3SGrid::Ptr read_vec3_grid(const std::string& path, const std::strin
     return grid;
 }
 
+/// Sets `tree`'s value where the value iterator `it` stands (a voxel or a tile) to x, active.
+template <class Iter>
+void put_value(FloatTree* tree, const Iter& it, float x) {
+    if (it.isVoxelValue())
+        tree->setValueOn(it.getCoord(), x);
+    else
+        tree->addTile(it.getLevel(), it.getCoord(), x, true);
+}
+
 /// N float trees of `grid`'s active values (voxels and tiles alike): tree n holds part(v, n,
 /// voxels) of a value v standing for `voxels` voxels.
 template <size_t N, class Part>
@@ -484,15 +493,21 @@ std::array<FloatTree, N> split_vec3(const openvdb::Vec3SGrid& grid, Part&& part)
     std::array<FloatTree, N> trees;  // background 0
     for (auto it = grid.tree().cbeginValueOn(); it; ++it) {
         const uint64_t voxels = it.isVoxelValue() ? 1 : it.getVoxelCount();
-        for (size_t n = 0; n < N; ++n) {
-            const float x = part(*it, n, voxels);
-            if (it.isVoxelValue())
-                trees[n].setValueOn(it.getCoord(), x);
-            else
-                trees[n].addTile(it.getLevel(), it.getCoord(), x, true);
-        }
+        for (size_t n = 0; n < N; ++n) put_value(&trees[n], it, part(*it, n, voxels));
     }
     return trees;
+}
+
+/// A velocity component's positive and negative parts into *plus and *minus; counts the voxels
+/// whose value is not finite (left 0).
+template <class Iter>
+void put_signed(const Iter& it, float x, FloatTree* plus, FloatTree* minus, uint64_t* bad) {
+    if (!std::isfinite(x)) {
+        *bad += it.isVoxelValue() ? 1 : it.getVoxelCount();
+        x = 0.0f;
+    }
+    put_value(plus, it, std::max(x, 0.0f));
+    put_value(minus, it, std::max(-x, 0.0f));
 }
 
 }  // namespace
@@ -522,17 +537,40 @@ std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std
                                                                        const std::string& grid_name,
                                                                        const std::string& field) {
     DMat4 index_to_world(1.0);
-    const auto grid = read_vec3_grid(path, grid_name, field, "a velocity", &index_to_world);
     // Part 2c + s: axis c's positive (s = 0) or negative (s = 1) part.
+    std::array<FloatTree, 6> trees;  // background 0
     uint64_t bad = 0;
-    auto trees = split_vec3<6>(*grid, [&](const openvdb::Vec3s& v, size_t n, uint64_t voxels) {
-        const float x = v[n / 2];
-        if (!std::isfinite(x)) {
-            bad += n % 2 == 0 ? voxels : 0;
-            return 0.0f;
+    const std::vector<std::string> names = vdb_grid_names(path, field);
+    const auto has = [&](const std::string& n) {
+        return std::find(names.begin(), names.end(), n) != names.end();
+    };
+    if (!has(grid_name) && has(grid_name + ".x") && has(grid_name + ".y") &&
+        has(grid_name + ".z")) {
+        // Split into float grids, as Houdini writes a vector volume's components.
+        for (size_t c = 0; c < 3; ++c) {
+            const std::string name = grid_name + "." + "xyz"[c];
+            DMat4 to_world(1.0);
+            const openvdb::GridBase::Ptr base = read_grid(path, name, field, &to_world);
+            const FloatGrid::Ptr grid = openvdb::gridPtrCast<FloatGrid>(base);
+            if (!grid)
+                throw InputError(path, field,
+                                 "grid '" + name + "' has type " + base->valueType() +
+                                     "; expected a float grid (a velocity component per voxel)");
+            if (c > 0 && to_world != index_to_world)
+                throw InputError(path, field,
+                                 "grids '" + grid_name +
+                                     ".x', '.y' and '.z' have different "
+                                     "transforms; expected the components of one grid");
+            index_to_world = to_world;
+            for (auto it = grid->tree().cbeginValueOn(); it; ++it)
+                put_signed(it, *it, &trees[2 * c], &trees[2 * c + 1], &bad);
         }
-        return std::max(n % 2 == 0 ? x : -x, 0.0f);
-    });
+    } else {
+        const auto grid = read_vec3_grid(path, grid_name, field, "a velocity", &index_to_world);
+        for (auto it = grid->tree().cbeginValueOn(); it; ++it)
+            for (size_t c = 0; c < 3; ++c)
+                put_signed(it, (*it)[c], &trees[2 * c], &trees[2 * c + 1], &bad);
+    }
     if (bad > 0)
         throw InputError(path, field,
                          "grid '" + grid_name + "' has " + std::to_string(bad) +

@@ -113,10 +113,12 @@ public:
                                                                      const std::string& grid_name,
                                                                      const std::string& field,
                                                                      uint64_t* clamped);
-    /// Reads vec3s grid `grid_name` (a velocity per voxel) as six grids, each axis's positive
-    /// and negative part (x+, x-, y+, y-, z+, z-), so that a component is the difference of two
-    /// samples (trilinear sampling is linear). Throws InputError as load, when the grid is not
-    /// vec3s, or when a value is not finite.
+    /// Reads vec3s grid `grid_name` (a velocity per voxel) — or, where the file has no such grid,
+    /// float grids grid_name.x, .y and .z of one transform (Houdini's split vector volumes) — as
+    /// six grids, each axis's positive and negative part (x+, x-, y+, y-, z+, z-), so that a
+    /// component is the difference of two samples (trilinear sampling is linear). Throws
+    /// InputError as load, when the grid is not vec3s (or a component not float, or their
+    /// transforms differ), or when a value is not finite.
     static std::array<std::unique_ptr<DensityGrid>, 6> load_velocity(const std::string& path,
                                                                      const std::string& grid_name,
                                                                      const std::string& field);

@@ -62,10 +62,22 @@ const GridInfo* colour_grid(const std::vector<GridInfo>& grids) {
     return nullptr;
 }
 
-const GridInfo* velocity_grid(const std::vector<GridInfo>& grids) {
+/// The velocity_grid a medium would name: a vec3s vel, velocity or v, else the base name of
+/// float grids NAME.x, NAME.y and NAME.z (a split vector volume); "" for none.
+std::string velocity_grid(const std::vector<GridInfo>& grids) {
     for (const GridInfo& g : grids)
-        if (g.value_type == "vec3s" && named(g, {"vel", "velocity", "v"})) return &g;
-    return nullptr;
+        if (g.value_type == "vec3s" && named(g, {"vel", "velocity", "v"})) return g.name;
+    for (const GridInfo& g : grids) {
+        const size_t dot = g.name.rfind('.');
+        if (!is_float(g) || dot == std::string::npos || g.name.substr(dot) != ".x") continue;
+        const std::string base = g.name.substr(0, dot);
+        if (lower(base) != "vel" && lower(base) != "velocity" && lower(base) != "v") continue;
+        int found = 0;
+        for (const GridInfo& h : grids)
+            found += is_float(h) && (h.name == base + ".y" || h.name == base + ".z") ? 1 : 0;
+        if (found == 2) return base;
+    }
+    return "";
 }
 
 const GridInfo* emission_grid(const std::vector<GridInfo>& grids) {
@@ -108,7 +120,7 @@ nlohmann::json emission_json(const GridInfo& g) {
 constexpr double kDepthAcross = 10.0;
 
 nlohmann::json medium_json(const std::string& file, const GridInfo& density, const GridInfo* colour,
-                           const GridInfo* velocity, const GridInfo* emission) {
+                           const std::string& velocity, const GridInfo* emission) {
     const Vec3 e = density.world_bounds.hi - density.world_bounds.lo;
     const double across = std::cbrt(std::max(double(e.x) * e.y * e.z, 1e-30));
     const double top = density.max_value > 0.0 ? density.max_value : 1.0;
@@ -120,7 +132,7 @@ nlohmann::json medium_json(const std::string& file, const GridInfo& density, con
                         {"sigma_a", 0.07},
                         {"g", 0.3}};
     if (colour) m["color_grid"] = colour->name;
-    if (velocity) m["velocity_grid"] = velocity->name;
+    if (!velocity.empty()) m["velocity_grid"] = velocity;
     if (emission) m["emission"] = emission_json(*emission);
     return m;
 }
@@ -171,7 +183,7 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
     const GridInfo* density = density_grid(grids);
     const GridInfo* emission = emission_grid(grids);
     const GridInfo* colour = colour_grid(grids);
-    const GridInfo* velocity = velocity_grid(grids);
+    const std::string velocity = velocity_grid(grids);
     std::vector<std::string> uses;
     for (const GridInfo& g : grids) {
         const std::string base = lower(g.name.substr(0, g.name.find('.')));
@@ -183,10 +195,13 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
             uses.push_back("colour (the scattering's albedo per channel)");
         else if (base == "cd" || base == "color" || base == "colour")
             uses.push_back("not used: a colour grid is read from a vec3s grid");
-        else if (&g == velocity)
+        else if (!velocity.empty() && (g.name == velocity || g.name == velocity + ".x" ||
+                                       g.name == velocity + ".y" || g.name == velocity + ".z"))
             uses.push_back("velocity (motion blur over camera.shutter)");
         else if (base == "vel" || base == "velocity" || base == "v")
-            uses.push_back("not used: a velocity grid is read from one vec3s grid");
+            uses.push_back(
+                "not used: a velocity is read from a vec3s grid or from float grids "
+                "NAME.x, NAME.y and NAME.z");
         else
             uses.push_back("not used");
     }
@@ -235,7 +250,7 @@ nlohmann::json vdb_scene_json(const std::string& file, int frame) {
                                           emission_grid(grids))}},
                             {"render", {{"spp", 16}}}};
     // A 180° shutter at 24 frames per second, centred on the frame.
-    if (velocity_grid(grids))
+    if (!velocity_grid(grids).empty())
         scene["camera"]["shutter"] = {{"open", -0.25}, {"close", 0.25}, {"fps", 24}};
     return scene;
 }

@@ -85,6 +85,33 @@ TEST_F(VdbAlone, TheCameraFramesTheDensityAndTheWrittenSceneRendersTheSameImage)
     EXPECT_FLOAT_EQ(s["shapes"][0]["corner"][1].get<float>(), density.world_bounds.lo.y);
 }
 
+TEST_F(VdbAlone, AVelocitySplitIntoFloatGridsIsTheMediumsVelocity) {
+    // Houdini's vector volumes as float grids vel.x, vel.y and vel.z.
+    openvdb::GridPtrVec grids;
+    for (const char* name : {"density", "vel.x", "vel.y", "vel.z"}) {
+        auto g = openvdb::FloatGrid::create(0.0f);
+        g->tree().fill(openvdb::CoordBBox(openvdb::Coord(0), openvdb::Coord(7)), 0.5f, true);
+        g->setName(name);
+        g->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+        grids.push_back(g);
+    }
+    openvdb::io::File(path("split.vdb")).write(grids);
+    const RunResult info = run("info " + path("split.vdb"));
+    ASSERT_EQ(info.code, 0) << info.err;
+    size_t uses = 0;
+    for (size_t at = info.out.find("velocity (motion blur"); at != std::string::npos;
+         at = info.out.find("velocity (motion blur", at + 1))
+        ++uses;
+    EXPECT_EQ(uses, 3u) << info.out;
+    const nlohmann::json s = scene_of("render " + path("split.vdb"));
+    EXPECT_EQ(s["media"][0]["velocity_grid"], "vel");
+    EXPECT_EQ(s["camera"]["shutter"]["fps"], 24);
+    const RunResult render =
+        run("render -q " + path("split.vdb") +
+            " --set camera.width=8 --set camera.height=6 --spp 1 -o " + path("split.exr"));
+    EXPECT_EQ(render.code, 0) << render.err;
+}
+
 TEST_F(VdbAlone, GridsAreRecognisedByTheirNamesAndInfoSaysEachOnesUse) {
     // density (0..0.5 over 16^3 voxels of 0.1), a Houdini temperature of 0..2 (not kelvin), Cd
     // and vel: the medium's density scale makes 10 the optical depth across the box's cube root
