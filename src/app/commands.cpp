@@ -137,6 +137,28 @@ void check_reference_size(const std::string& path, const Image& reference,
                              std::to_string(camera.width) + "x" + std::to_string(camera.height));
 }
 
+void write_image(PipelineResult* run, const std::string& exr, const std::string& png,
+                 float exposure, const Image* reference, const std::string& reference_path) {
+    Report& report = run->report;
+    const Image& image = run->film.beauty;
+    if (reference) {
+        const ImageError e = image_error(image, *reference);
+        report.reference = reference_path;
+        report.rmse = e.rmse;
+        report.rel_mse = e.rel_mse;
+        report.bias = e.bias;
+    }
+    const Timer timer;
+    create_output_folder(exr);
+    create_output_folder(png);
+    OutputFiles outputs;
+    write_exr(outputs.stage(exr), image, run->film.named_layers());
+    write_png(outputs.stage(png), image, exposure);
+    outputs.commit();
+    add_phase(&report, "write", timer.seconds());
+    report.outputs = {exr, png};
+}
+
 void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs) {
     for (const auto& [input, what] : inputs)
@@ -267,23 +289,7 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
     }
     if (!root) return std::move(report);  // rank 0 writes
     if (!threads_warning.empty()) report.warnings.insert(report.warnings.begin(), threads_warning);
-    const Image& image = run.film.beauty;
-    if (reference) {
-        const ImageError e = image_error(image, *reference);
-        report.reference = args.reference;
-        report.rmse = e.rmse;
-        report.rel_mse = e.rel_mse;
-        report.bias = e.bias;
-    }
-    const Timer timer;
-    create_output_folder(exr);
-    create_output_folder(png);
-    OutputFiles outputs;
-    write_exr(outputs.stage(exr), image, run.film.named_layers());
-    write_png(outputs.stage(png), image, args.exposure);
-    outputs.commit();
-    report.phases_s.emplace_back("write", timer.seconds());
-    report.outputs = {exr, png};
+    write_image(&run, exr, png, args.exposure, reference, args.reference);
     return std::move(report);
 }
 
@@ -302,9 +308,10 @@ struct RenderJob {
     SceneDesc desc;
 };
 
-/// What a part prints for its report (the image's comes from fogmap merge): the file it wrote and
-/// its phases.
-nlohmann::json part_json(const RenderArgs& args, const Report& report) {
+/// The report a render prints as JSON: a part's (the image's comes from fogmap merge) is the file
+/// it wrote and its phases.
+nlohmann::json render_report_json(const RenderArgs& args, const Report& report) {
+    if (args.part.empty()) return report_json(report);
     nlohmann::json phases = nlohmann::json::object();
     for (const auto& [name, s] : report.phases_s) phases[name] = s;
     return {{"part", args.part},
@@ -312,7 +319,9 @@ nlohmann::json part_json(const RenderArgs& args, const Report& report) {
             {"time_s", phases},
             {"warnings", report.warnings}};
 }
-std::string part_text(const RenderArgs& args, const Report& report) {
+/// The same as text.
+std::string render_report_text(const RenderArgs& args, const Report& report) {
+    if (args.part.empty()) return report_text(report);
     std::string text = "part " + args.part + ": wrote " + report.outputs.at(0) + "\n";
     for (const auto& [name, s] : report.phases_s) {
         char line[200];
@@ -595,11 +604,10 @@ int run_render(const RenderArgs& args) {
         const Report report =
             render_and_write(args, desc, exr, png, args.reference.empty() ? nullptr : &reference);
         if (args.ranks && args.ranks->rank() != 0) return 0;
-        const bool part = !args.part.empty();
         if (args.json)
-            std::cout << (part ? part_json(args, report) : report_json(report)).dump(2) << "\n";
+            std::cout << render_report_json(args, report).dump(2) << "\n";
         else
-            std::cout << (part ? part_text(args, report) : report_text(report));
+            std::cout << render_report_text(args, report);
         return 0;
     }
 
@@ -674,14 +682,12 @@ int run_render(const RenderArgs& args) {
             throw framed;
         }
         if (!speaks) continue;
-        const bool part = !args.part.empty();
         if (args.json) {
-            nlohmann::json j = part ? part_json(args, report) : report_json(report);
+            nlohmann::json j = render_report_json(args, report);
             j["frame"] = f;
             reports.push_back(j);
         } else {
-            std::cout << "frame " << f << "\n"
-                      << (part ? part_text(args, report) : report_text(report));
+            std::cout << "frame " << f << "\n" << render_report_text(args, report);
         }
     }
     if (args.json && speaks) std::cout << reports.dump(2) << "\n";

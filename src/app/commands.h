@@ -73,6 +73,12 @@ void check_run_memory(const RunSetup& setup, bool with_reference);
 /// Throws InputError{path, "", ...} unless `reference` (read from `path`) is the camera's size.
 void check_reference_size(const std::string& path, const Image& reference,
                           const CameraDesc& camera);
+struct PipelineResult;
+/// Writes `run`'s image to `exr` and `png` (both complete before either replaces an older one,
+/// core/output_files.h) with the time it took, and with `reference` (read from reference_path;
+/// may be null) its error, in run's report.
+void write_image(PipelineResult* run, const std::string& exr, const std::string& png,
+                 float exposure, const Image* reference, const std::string& reference_path);
 /// Throws InputError{output, option, ...} when the output path names one of the run's inputs.
 void check_not_an_input(const std::string& output, const std::string& option,
                         const std::vector<std::pair<std::string, std::string>>& inputs);

@@ -10,7 +10,6 @@
 #include "core/image.h"
 #include "core/output_files.h"
 #include "core/timer.h"
-#include "render/metrics.h"
 #include "render/part_file.h"
 #include "render/pipeline.h"
 #include "render/report.h"
@@ -118,42 +117,23 @@ int run_merge(const MergeArgs& a) {
     if (!a.reference.empty()) check_reference_size(a.reference, reference, setup.run.camera);
     check_run_memory(setup, !a.reference.empty());
     PartMerge merge;
-    std::optional<PartSums> shape;  // part 1's film shape, its values left out
+    std::optional<PartSums::FilmShape> shape;  // part 1's
     for (const auto& [path, run] : runs) {
         PartFile part = read_part(path);
         expect_same_run(path, part.run, runs.front().first, runs.front().second);
-        if (!shape) {
-            shape.emplace();
-            shape->map_variance = part.sums.map_variance;
-            shape->bias_halves = part.sums.bias_halves;
-            shape->batch_share = part.sums.batch_share;
-        } else if (part.sums.map_variance != shape->map_variance ||
-                   part.sums.bias_halves != shape->bias_halves ||
-                   part.sums.batch_share != shape->batch_share)
+        if (!shape)
+            shape = part.sums.shape;
+        else if (!(part.sums.shape == *shape))
             throw InputError(path, "film",
                              "its film's layers or batches differ from those of " +
                                  runs.front().first + "; the file is corrupt");
         merge.add(std::move(part.sums));
     }
     PipelineResult result = merge.finish(setup, /*speak=*/true);
-    Report& report = result.report;
-    add_phase(&report, "merge", timer.seconds());
-    if (!a.reference.empty()) {
-        const ImageError e = image_error(result.film.beauty, reference);
-        report.reference = a.reference;
-        report.rmse = e.rmse;
-        report.rel_mse = e.rel_mse;
-        report.bias = e.bias;
-    }
-    const Timer write;
-    create_output_folder(a.output);
-    create_output_folder(png);
-    OutputFiles outputs;
-    write_exr(outputs.stage(a.output), result.film.beauty, result.film.named_layers());
-    write_png(outputs.stage(png), result.film.beauty, a.exposure);
-    outputs.commit();
-    add_phase(&report, "write", write.seconds());
-    report.outputs = {a.output, png};
+    const Report& report = result.report;
+    add_phase(&result.report, "merge", timer.seconds());
+    write_image(&result, a.output, png, a.exposure, a.reference.empty() ? nullptr : &reference,
+                a.reference);
     if (a.json)
         std::cout << report_json(report).dump(2) << "\n";
     else

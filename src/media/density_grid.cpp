@@ -425,6 +425,20 @@ openvdb::GridBase::Ptr read_grid(const std::string& path, const std::string& gri
     return base;
 }
 
+/// read_grid's grid as a GridT; `expected` names that type (and what a voxel holds) in the error.
+template <class GridT>
+typename GridT::Ptr read_typed_grid(const std::string& path, const std::string& grid_name,
+                                    const std::string& field, const std::string& expected,
+                                    DMat4* to_world) {
+    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, to_world);
+    typename GridT::Ptr grid = openvdb::gridPtrCast<GridT>(base);
+    if (!grid)
+        throw InputError(
+            path, field,
+            "grid '" + grid_name + "' has type " + base->valueType() + "; expected " + expected);
+    return grid;
+}
+
 }  // namespace
 
 /// DensityGrid's friend: the grid of an OpenVDB tree (sanitized, then made into majorants and
@@ -453,29 +467,12 @@ std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
                                                const std::string& grid_name,
                                                const std::string& field) {
     DMat4 index_to_world(1.0);
-    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, &index_to_world);
-    const FloatGrid::Ptr grid = openvdb::gridPtrCast<FloatGrid>(base);
-    if (!grid)
-        throw InputError(
-            path, field,
-            "grid '" + grid_name + "' has type " + base->valueType() + "; expected a float grid");
+    const FloatGrid::Ptr grid =
+        read_typed_grid<FloatGrid>(path, grid_name, field, "a float grid", &index_to_world);
     return GridBuilder::build(grid->tree(), index_to_world, path, field, grid_name);
 }
 
 namespace {
-
-/// Grid `grid_name` of `path` as a vec3s grid; `what` names a voxel's value in the type error.
-openvdb::Vec3SGrid::Ptr read_vec3_grid(const std::string& path, const std::string& grid_name,
-                                       const std::string& field, const char* what,
-                                       DMat4* index_to_world) {
-    const openvdb::GridBase::Ptr base = read_grid(path, grid_name, field, index_to_world);
-    const openvdb::Vec3SGrid::Ptr grid = openvdb::gridPtrCast<openvdb::Vec3SGrid>(base);
-    if (!grid)
-        throw InputError(path, field,
-                         "grid '" + grid_name + "' has type " + base->valueType() +
-                             "; expected a vec3s grid (" + what + " per voxel)");
-    return grid;
-}
 
 /// Sets `tree`'s value where the value iterator `it` stands (a voxel or a tile) to x, active.
 template <class Iter>
@@ -517,7 +514,8 @@ std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std
                                                                        const std::string& field,
                                                                        uint64_t* clamped) {
     DMat4 index_to_world(1.0);
-    const auto grid = read_vec3_grid(path, grid_name, field, "a colour", &index_to_world);
+    const auto grid = read_typed_grid<openvdb::Vec3SGrid>(
+        path, grid_name, field, "a vec3s grid (a colour per voxel)", &index_to_world);
     // Values above 1 clamped; a value below 0 or not finite is no colour: the file is wrong.
     *clamped = 0;
     uint64_t bad = 0;
@@ -550,12 +548,8 @@ std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std
         for (size_t c = 0; c < 3; ++c) {
             const std::string name = grid_name + "." + "xyz"[c];
             DMat4 to_world(1.0);
-            const openvdb::GridBase::Ptr base = read_grid(path, name, field, &to_world);
-            const FloatGrid::Ptr grid = openvdb::gridPtrCast<FloatGrid>(base);
-            if (!grid)
-                throw InputError(path, field,
-                                 "grid '" + name + "' has type " + base->valueType() +
-                                     "; expected a float grid (a velocity component per voxel)");
+            const FloatGrid::Ptr grid = read_typed_grid<FloatGrid>(
+                path, name, field, "a float grid (a velocity component per voxel)", &to_world);
             if (c > 0 && to_world != index_to_world)
                 throw InputError(path, field,
                                  "grids '" + grid_name +
@@ -566,7 +560,8 @@ std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std
                 put_signed(it, *it, &trees[2 * c], &trees[2 * c + 1], &bad);
         }
     } else {
-        const auto grid = read_vec3_grid(path, grid_name, field, "a velocity", &index_to_world);
+        const auto grid = read_typed_grid<openvdb::Vec3SGrid>(
+            path, grid_name, field, "a vec3s grid (a velocity per voxel)", &index_to_world);
         for (auto it = grid->tree().cbeginValueOn(); it; ++it)
             for (size_t c = 0; c < 3; ++c)
                 put_signed(it, (*it)[c], &trees[2 * c], &trees[2 * c + 1], &bad);

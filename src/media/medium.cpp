@@ -102,22 +102,25 @@ MajorantGrid widen(const MajorantGrid& m, int reach) {
 
 }  // namespace
 
+double Medium::max_speed(const std::array<std::shared_ptr<const DensityGrid>, 6>& parts,
+                         const Mat4& scene_transform) {
+    const Mat3 linear(scene_transform);
+    double speed2 = 0.0, stretch2 = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        const double a = std::max(parts[2 * c]->max_density(), parts[2 * c + 1]->max_density());
+        speed2 += a * a;
+        stretch2 += double(glm::dot(linear[c], linear[c]));
+    }
+    return std::sqrt(speed2 * stretch2);
+}
+
 void Medium::set_velocity(std::array<std::shared_ptr<const DensityGrid>, 6> parts,
                           const Mat4& scene_transform, float max_seconds) {
     velocity_ = std::move(parts);
     world_to_velocity_index_ =
         glm::inverse(scene_transform * to_float(velocity_[0]->index_to_world()));
     velocity_to_world_ = Mat3(scene_transform);
-    // |v| in the grid's world, each axis's largest part; the linear map stretches it at most by
-    // its Frobenius norm.
-    double speed2 = 0.0, stretch2 = 0.0;
-    for (int c = 0; c < 3; ++c) {
-        const double a =
-            std::max(velocity_[2 * c]->max_density(), velocity_[2 * c + 1]->max_density());
-        speed2 += a * a;
-        stretch2 += double(glm::dot(velocity_to_world_[c], velocity_to_world_[c]));
-    }
-    max_shift_ = float(std::sqrt(speed2 * stretch2) * max_seconds);
+    max_shift_ = float(max_speed(velocity_, scene_transform) * max_seconds);
     if (!(max_shift_ > 0.0f) || !grid_ || grid_->empty()) return;
     // A lookup moves at most max_shift_: the density anywhere within it of a point bounds the
     // point's at every time.

@@ -70,6 +70,10 @@ public:
     /// set_emission; load time only.
     void set_velocity(std::array<std::shared_ptr<const DensityGrid>, 6> parts,
                       const Mat4& scene_transform, float max_seconds);
+    /// A bound of the speed (world units per second) of velocity `parts` placed by
+    /// scene_transform: each axis's largest part, stretched by the map's Frobenius norm.
+    static double max_speed(const std::array<std::shared_ptr<const DensityGrid>, 6>& parts,
+                            const Mat4& scene_transform);
     /// The farthest a lookup moves (world units): max speed × max_seconds; 0 without velocity.
     float max_shift() const { return max_shift_; }
 

@@ -173,9 +173,10 @@ void parse_json(const std::string& path, const std::string& text, PartFile* part
         run.setup.method = method_of(run.setup.run);
         run.setup.progressive = j.at("progressive").get<bool>();
         const nlohmann::json& film = j.at("film");
-        part->sums.map_variance = film.at("map_variance").get<bool>();
-        part->sums.bias_halves = film.at("bias_halves").get<int>();
-        part->sums.batch_share = film.at("batch_share").get<std::array<double, kBatches>>();
+        PartSums::FilmShape& shape = part->sums.shape;
+        shape.map_variance = film.at("map_variance").get<bool>();
+        shape.bias_halves = film.at("bias_halves").get<int>();
+        shape.batch_share = film.at("batch_share").get<std::array<double, kBatches>>();
         part->sums.report = part_report_of_json(j.at("report"));
     } catch (const nlohmann::json::exception& e) {
         throw InputError(path, "run",
@@ -187,9 +188,9 @@ void parse_json(const std::string& path, const std::string& text, PartFile* part
         throw InputError(path, "run",
                          "part " + std::to_string(run.index) + " of " + std::to_string(run.count) +
                              "; expected 1 <= part <= parts");
-    if (part->sums.bias_halves < 0 || part->sums.bias_halves > 4)
+    if (part->sums.shape.bias_halves < 0 || part->sums.shape.bias_halves > 4)
         throw InputError(path, "run",
-                         "a film of " + std::to_string(part->sums.bias_halves) +
+                         "a film of " + std::to_string(part->sums.shape.bias_halves) +
                              " bias halves; expected 0 to 4");
 }
 
@@ -213,9 +214,9 @@ std::string part_bytes(const PartFile& part) {
                               {"run", to_json(run.setup.run)},
                               {"progressive", run.setup.progressive},
                               {"film",
-                               {{"map_variance", sums.map_variance},
-                                {"bias_halves", sums.bias_halves},
-                                {"batch_share", sums.batch_share}}},
+                               {{"map_variance", sums.shape.map_variance},
+                                {"bias_halves", sums.shape.bias_halves},
+                                {"batch_share", sums.shape.batch_share}}},
                               {"report", report_json_of_part(sums.report)}};
     const std::string text = j.dump();
     std::string out(kMagic);
@@ -274,7 +275,7 @@ PartFile read_part(const std::string& path) {
         if (part.sums.counts.back() < 0)
             throw InputError(path, "counts", "a negative count; the file is corrupt");
     }
-    part.sums.values = get_values(path, &in, part_value_count(part.run.setup, part.sums));
+    part.sums.values = get_values(path, &in, part_value_count(part.run.setup, part.sums.shape));
     if (!in.done()) throw InputError(path, "values", "bytes after the film; the file is corrupt");
     return part;
 }

@@ -656,9 +656,9 @@ bool RunLoop::reduce() {
             p.values = std::move(sum_.values);
         } else {
             p.values = film_bits(out_.film);
-            p.map_variance = !out_.film.map_variance.pixels.empty();
-            p.bias_halves = int(out_.film.bias_halves.size());
-            p.batch_share = out_.film.batch_share;
+            p.shape.map_variance = !out_.film.map_variance.pixels.empty();
+            p.shape.bias_halves = int(out_.film.bias_halves.size());
+            p.shape.batch_share = out_.film.batch_share;
         }
         p.report = std::move(report_);
         return false;
@@ -760,7 +760,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     return run_loaded(setup, *scene, o);
 }
 
-size_t part_value_count(const RunSetup& setup, const PartSums& shape) {
+size_t part_value_count(const RunSetup& setup, const PartSums::FilmShape& shape) {
     const int w = setup.run.camera.width, h = setup.run.camera.height;
     if (setup.progressive) return FixedFilm::value_count(w, h, /*layered=*/true);
     const size_t images = 1 + kLayerCount + kBatches + (shape.map_variance ? 1 : 0) +
@@ -807,9 +807,10 @@ PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
     }
     const Counts sum = plain_sum(Counts::unpack(sum_.counts), own);
     out.film = Film(d.camera.width, d.camera.height, /*layered=*/true);
-    if (sum_.map_variance) out.film.map_variance = Image(d.camera.width, d.camera.height);
-    out.film.bias_halves.assign(size_t(sum_.bias_halves), Image(d.camera.width, d.camera.height));
-    out.film.batch_share = sum_.batch_share;
+    const PartSums::FilmShape& shape = sum_.shape;  // part 1's, every part's
+    if (shape.map_variance) out.film.map_variance = Image(d.camera.width, d.camera.height);
+    out.film.bias_halves.assign(size_t(shape.bias_halves), Image(d.camera.width, d.camera.height));
+    out.film.batch_share = shape.batch_share;
     set_film_bits(sum_.values, &out.film);
     RunEnd{setup, sum, 1, speak, false}.finish(&out.film, &out.report);
     return out;

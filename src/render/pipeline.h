@@ -45,13 +45,19 @@ struct PartSums {
     std::vector<int64_t> values;
     /// A plain render's film's shape beside its layers and batches: whether it has a map
     /// variance, how many bias halves, each batch's share of a pixel's samples.
-    bool map_variance = false;
-    int bias_halves = 0;
-    std::array<double, kBatches> batch_share{};
+    struct FilmShape {
+        bool map_variance = false;
+        int bias_halves = 0;
+        std::array<double, kBatches> batch_share{};
+        bool operator==(const FilmShape& o) const {
+            return map_variance == o.map_variance && bias_halves == o.bias_halves &&
+                   batch_share == o.batch_share;
+        }
+    } shape;
 };
 
-/// PartSums::values' length for a part of `setup`'s run of `shape`'s film.
-size_t part_value_count(const RunSetup& setup, const PartSums& shape);
+/// PartSums::values' length for a part of `setup`'s run of a film of `shape`.
+size_t part_value_count(const RunSetup& setup, const PartSums::FilmShape& shape);
 
 struct PipelineResult {
     Film film;      ///< mean over iterations, layered

@@ -141,18 +141,19 @@ void attach_velocity(const SceneDesc& desc, size_t i, const std::string& path, M
     const std::string field = "/media/" + std::to_string(i) + "/velocity_grid";
     const ShutterDesc& shutter = *desc.camera.shutter;
     const float frames = std::max(std::abs(shutter.open), std::abs(shutter.close));
+    auto loaded = DensityGrid::load_velocity(path, m.velocity_grid, field);
+    std::array<std::shared_ptr<const DensityGrid>, 6> parts;
+    for (size_t c = 0; c < parts.size(); ++c) parts[c] = std::move(loaded[c]);
+    // Checked before the medium's majorants are widened by the move (a work that grows with it).
+    const double per_frame = Medium::max_speed(parts, m.transform.matrix) / shutter.fps;
     const double extent = double(glm::length(medium->world_bounds().extent()));
-    auto parts = DensityGrid::load_velocity(path, m.velocity_grid, field);
-    medium->set_velocity({std::move(parts[0]), std::move(parts[1]), std::move(parts[2]),
-                          std::move(parts[3]), std::move(parts[4]), std::move(parts[5])},
-                         m.transform.matrix, frames / shutter.fps);
-    const double per_frame = frames > 0.0f ? double(medium->max_shift()) / frames : 0.0;
-    if (!medium->world_bounds().empty() && per_frame > extent)
+    if (frames > 0.0f && !medium->world_bounds().empty() && per_frame > extent)
         throw InputError(path, field,
                          "grid '" + m.velocity_grid + "' moves the medium up to " +
                              g_text(per_frame) + " world units a frame (at camera.shutter.fps " +
                              g_text(shutter.fps) + "), more than its extent, " + g_text(extent) +
                              "; expected world units per second");
+    medium->set_velocity(std::move(parts), m.transform.matrix, frames / shutter.fps);
 }
 
 /// The first of kEmissionGridNames that `names` holds, or "".

@@ -37,11 +37,11 @@ PartFile hand_built() {
     p.run.settings = part_settings_fingerprint(p.run.setup);
     p.run.inputs = 0xFEDCBA9876543210ull;
     PartSums& s = p.sums;
-    s.map_variance = true;
-    s.bias_halves = 4;
-    for (int b = 0; b < kBatches; ++b) s.batch_share[size_t(b)] = 1.0 / 3.0 + b;
+    s.shape.map_variance = true;
+    s.shape.bias_halves = 4;
+    for (int b = 0; b < kBatches; ++b) s.shape.batch_share[size_t(b)] = 1.0 / 3.0 + b;
     for (size_t i = 0; i < kRunCounts; ++i) s.counts.push_back(int64_t(i) << (4 * i));
-    s.values.assign(part_value_count(p.run.setup, s), 0);
+    s.values.assign(part_value_count(p.run.setup, s.shape), 0);
     for (size_t i = 5; i + 3 < s.values.size(); ++i)
         if (i % 7 < 3) s.values[i] = int64_t(uint64_t(i) * 0x9E3779B97F4A7C15ull);
     s.values[9] = INT64_MIN;
@@ -89,9 +89,9 @@ TEST(PartFile, RoundTripKeepsEveryFieldTheMergeReads) {
     const PartSums& s = p.sums;
     EXPECT_EQ(r.counts, s.counts);
     EXPECT_EQ(r.values, s.values);
-    EXPECT_EQ(r.map_variance, s.map_variance);
-    EXPECT_EQ(r.bias_halves, s.bias_halves);
-    EXPECT_EQ(r.batch_share, s.batch_share);
+    EXPECT_EQ(r.shape.map_variance, s.shape.map_variance);
+    EXPECT_EQ(r.shape.bias_halves, s.shape.bias_halves);
+    EXPECT_EQ(r.shape.batch_share, s.shape.batch_share);
     EXPECT_EQ(r.report.phases_s, s.report.phases_s);
     EXPECT_EQ(r.report.threads, 7);
     EXPECT_EQ(r.report.render_s, s.report.render_s);
