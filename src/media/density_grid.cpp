@@ -8,10 +8,13 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/Count.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <mutex>
 
 namespace fogmap {
@@ -191,37 +194,70 @@ Coord cell_origin(const MajorantGrid& maj, int i, int j, int k) {
     return Coord(maj.origin[0] + kCell * i, maj.origin[1] + kCell * j, maj.origin[2] + kCell * k);
 }
 
+/// `brick` as steps from its least value (detail::BrickCell) into `out`. The step is rounded down
+/// until the greatest step gives at most the greatest value as the sampler computes it, so that
+/// every sample stays within the footprint's least and greatest values (the cell's majorants);
+/// a step below the least normal float is 0 (values apart by less than 1e-33 read as the least).
+void quantize(const Brick& brick, detail::BrickCell* cell, uint16_t* out) {
+    constexpr int kSteps = detail::kBrickSteps;
+    const auto [lo, hi] = std::minmax_element(brick.begin(), brick.end());
+    float step = (*hi - *lo) / float(kSteps);
+    while (step > 0.0f && *lo + step * float(kSteps) > *hi) step = std::nextafter(step, 0.0f);
+    if (!(step >= std::numeric_limits<float>::min())) step = 0.0f;
+    cell->value = *lo;
+    cell->step = step;
+    const double per_step = step > 0.0f ? 1.0 / double(step) : 0.0;
+    for (int n = 0; n < detail::kBrickValues; ++n) {
+        const double q = std::round((double(brick[n]) - double(*lo)) * per_step);
+        out[n] = static_cast<uint16_t>(std::clamp(q, 0.0, double(kSteps)));
+    }
+}
+
+/// Calls row(j, k, acc) for every row of cells (along x) on the run's threads, each task with its
+/// own accessor (an accessor caches nodes: one per thread).
+template <class Row>
+void for_each_row(const FloatTree& tree, const MajorantGrid& maj, Row&& row) {
+    const int rows = maj.dims[1] * maj.dims[2];
+    tbb::parallel_for(tbb::blocked_range<int>(0, rows), [&](const tbb::blocked_range<int>& r) {
+        ConstAccessor acc(tree);
+        for (int n = r.begin(); n != r.end(); ++n) row(n % maj.dims[1], n / maj.dims[1], acc);
+    });
+}
+
 detail::Bricks build_bricks(const FloatTree& tree, MajorantGrid* majorants) {
     const MajorantGrid& maj = *majorants;
+    const size_t dim_x = size_t(maj.dims[0]);
     detail::Bricks out;
     out.cells.resize(maj.max_density.size());
     majorants->min_density.assign(maj.max_density.size(), 0.0f);
-    ConstAccessor acc(tree);
-    Brick brick;
-    // The bricks counted first, so that their array is allocated once at its size: grown by
-    // doubling and then trimmed, it took up to three times their memory at its peak.
-    size_t bricks = 0, n = 0;
-    for (int k = 0; k < maj.dims[2]; ++k)
-        for (int j = 0; j < maj.dims[1]; ++j)
-            for (int i = 0; i < maj.dims[0]; ++i, ++n)
-                // Values are >= 0 after sanitizing: a zero majorant means 9^3 zeros.
-                if (maj.max_density[n] > 0.0f)
-                    bricks += needs_brick(acc, cell_origin(maj, i, j, k), &brick);
-    out.values.reserve(bricks * detail::kBrickValues);
-    n = 0;
-    for (int k = 0; k < maj.dims[2]; ++k)
-        for (int j = 0; j < maj.dims[1]; ++j)
-            for (int i = 0; i < maj.dims[0]; ++i, ++n) {
-                if (maj.max_density[n] == 0.0f) continue;
-                fill_brick(acc, cell_origin(maj, i, j, k), &brick);
-                detail::BrickCell& cell = out.cells[n];
-                cell.value = brick[0];
-                majorants->min_density[n] = *std::min_element(brick.begin(), brick.end());
-                if (uniform(brick)) continue;
-                cell.brick = static_cast<int32_t>(out.values.size() / detail::kBrickValues);
-                out.values.insert(out.values.end(), brick.begin(), brick.end());
-            }
-    FOGMAP_ASSERT(out.values.size() == bricks * detail::kBrickValues, "bricks counted exactly");
+    // The bricks counted first, so that their array is allocated once at its size (grown by
+    // doubling and then trimmed, it took up to three times their memory at its peak), and each
+    // cell's brick numbered in cell order whatever the thread count.
+    std::vector<int32_t> brick_of(maj.max_density.size(), -1);
+    for_each_row(tree, maj, [&](int j, int k, ConstAccessor& acc) {
+        Brick scratch;
+        const size_t first = maj.index(0, j, k);
+        for (int i = 0; i < maj.dims[0]; ++i)
+            // Values are >= 0 after sanitizing: a zero majorant means 9^3 zeros.
+            if (maj.max_density[first + i] > 0.0f)
+                brick_of[first + i] = needs_brick(acc, cell_origin(maj, i, j, k), &scratch);
+    });
+    size_t bricks = 0;
+    for (int32_t& b : brick_of) b = b > 0 ? static_cast<int32_t>(bricks++) : -1;
+    out.values.resize(bricks * detail::kBrickValues);
+    for_each_row(tree, maj, [&](int j, int k, ConstAccessor& acc) {
+        Brick brick;
+        for (size_t n = maj.index(0, j, k), i = 0; i < dim_x; ++i, ++n) {
+            if (maj.max_density[n] == 0.0f) continue;
+            fill_brick(acc, cell_origin(maj, int(i), j, k), &brick);
+            detail::BrickCell& cell = out.cells[n];
+            cell.value = brick[0];
+            majorants->min_density[n] = *std::min_element(brick.begin(), brick.end());
+            if (brick_of[n] < 0) continue;
+            cell.brick = brick_of[n];
+            quantize(brick, &cell, &out.values[size_t(cell.brick) * detail::kBrickValues]);
+        }
+    });
     return out;
 }
 
@@ -242,17 +278,15 @@ DMat4 to_glm(const openvdb::Mat4d& m) {
 
 /// The sampler (build_majorants, then build_bricks) covers the whole active bounding box with
 /// cells of 8^3 voxels, whatever the grid holds: its memory and time follow from the box, so they
-/// are estimated from it first: build_majorants' 32 bytes per part (one more cell per axis), 12
-/// bytes per cell (majorant and BrickCell) and a 9^3 brick per leaf (a dense grid's cells each
-/// hold one). One active tile at the root level spans 4096^3 voxels: 134 million cells, ~6 GB.
+/// are estimated from it first: build_majorants' 32 bytes per part (one more cell per axis), 24
+/// bytes per cell (two majorants, a BrickCell and its brick's number while bricks are built) and
+/// a 9^3 brick of 2-byte steps per leaf (a dense grid's cells each hold one). One active tile at
+/// the root level spans 4096^3 voxels: 134 million cells, ~7.5 GB.
 constexpr uint64_t kMaxSamplerCells = uint64_t(1) << 26;
 
 /// A float leaf's voxel values in memory (max_leaves).
 constexpr double kLeafValueBytes = 512.0 * sizeof(float);
 
-/// Refuses a grid whose sampler (for its active box and `leaves` leaves) has too many cells or,
-/// with `tree_bytes` (OpenVDB's tree, not yet read; 0 once it is), needs more than the memory
-/// available.
 /// The sampler's cells and bytes for an active box and `leaves` leaves (its span in voxels, for
 /// messages).
 struct SamplerSize {
@@ -273,11 +307,15 @@ SamplerSize sampler_size(const CoordBBox& active, uint64_t leaves) {
         s.span += (a ? " x " : "") + std::to_string(hi - lo - 1);
     }
     const double bricks = std::min(s.cells, static_cast<double>(leaves));
-    s.bytes = 32.0 * parts + 12.0 * s.cells +
-              bricks * detail::kBrickValues * static_cast<double>(sizeof(float));
+    s.bytes = 32.0 * parts +
+              (2.0 * sizeof(float) + sizeof(detail::BrickCell) + sizeof(int32_t)) * s.cells +
+              bricks * detail::kBrickValues * static_cast<double>(sizeof(uint16_t));
     return s;
 }
 
+/// Refuses a grid whose sampler (for its active box and `leaves` leaves) has too many cells or,
+/// with `tree_bytes` (OpenVDB's tree, not yet read; 0 once it is), needs more than the memory
+/// available.
 void check_sampler_size(const std::string& path, const std::string& field,
                         const std::string& grid_name, const CoordBBox& active, uint64_t leaves,
                         uint64_t tree_bytes = 0) {

@@ -8,7 +8,9 @@
 // each cell, for delta/ratio tracking and empty-space skipping.
 // For sampling, load() copies each majorant cell's 9^3 footprint out of the tree, so that a sample
 // costs about a dense array's (bench/march_bench.cpp): a cell holding one value (empty space, tile
-// interiors) keeps that value, any other owns a brick of the 9^3 values; the OpenVDB tree is then
+// interiors) keeps that value, any other owns a brick of the 9^3 values stored as 16-bit steps
+// between the footprint's least and greatest value (as NanoVDB's Fp16: 2 bytes a value, each
+// within half a step, 1/131070 of the footprint's range, of the file's); the OpenVDB tree is then
 // freed.
 // Thread-safety: a DensityGrid is immutable after load and shared const. A Sampler holds only
 // views of it (no cache), so density() is thread-safe; making one per thread/task stays the rule.
@@ -82,16 +84,19 @@ namespace detail {
 
 /// Sampling layout of a DensityGrid, one cell per majorant cell (same order as MajorantGrid).
 /// Cell c's brick holds voxels c*8 .. c*8+8 per axis (its 8^3 voxels and the low faces of its
-/// +1 neighbours: every 2^3 stencil of a point in the cell), x slowest, z fastest.
+/// +1 neighbours: every 2^3 stencil of a point in the cell), x slowest, z fastest, as steps q:
+/// a voxel's value is value + step * q.
 inline constexpr int kBrickEdge = 9;
 inline constexpr int kBrickValues = kBrickEdge * kBrickEdge * kBrickEdge;
+inline constexpr int kBrickSteps = 65535;  ///< q in 0 .. kBrickSteps
 struct BrickCell {
     int32_t brick = -1;  ///< index into Bricks::values / kBrickValues; -1: all 9^3 equal `value`
-    float value = 0.0f;
+    float value = 0.0f;  ///< the one value, or the brick's least
+    float step = 0.0f;   ///< the brick's (greatest − least) / kBrickSteps
 };
 struct Bricks {
     std::vector<BrickCell> cells;
-    std::vector<float> values;
+    std::vector<uint16_t> values;
 };
 
 }  // namespace detail
@@ -144,7 +149,7 @@ public:
     /// Bytes of the sampling layout (cells and bricks): what the grid keeps after load.
     size_t sampler_bytes() const {
         return bricks_.cells.size() * sizeof(detail::BrickCell) +
-               bricks_.values.capacity() * sizeof(float);
+               bricks_.values.capacity() * sizeof(uint16_t);
     }
 
     /// Trilinear sampler: a view of the grid's cells and bricks. Cheap to make; one per
@@ -155,15 +160,15 @@ public:
         Sampler(Sampler&&) noexcept = default;
         Sampler(const Sampler&) = delete;
         /// Trilinear density at a continuous index-space point (voxel centres at integers), 0
-        /// outside the majorant grid (so outside index_bounds()). Equals openvdb::tools::
-        /// BoxSampler on the sanitized grid (bit for bit, but for a 1-ulp rounding of the weight
-        /// in OpenVDB's double arithmetic when a coordinate lies in (-0.5, 0)). Inline: it is
-        /// the march's inner loop.
+        /// outside the majorant grid (so outside index_bounds()). openvdb::tools::BoxSampler on
+        /// the sanitized grid, but for the bricks' steps: within half a step of the cell's
+        /// footprint (and float rounding); exact in a cell of one value. Inline: it is the
+        /// march's inner loop.
         float density(const Vec3& p_index) const;
 
     private:
         const detail::BrickCell* cells_ = nullptr;
-        const float* values_ = nullptr;
+        const uint16_t* values_ = nullptr;
         std::array<int, 3> origin_{0, 0, 0};  ///< index coordinate of cell (0,0,0)
         int dim_x_ = 0, dim_y_ = 0;           ///< cells per axis (x, y)
         Vec3 lo_{0.0f}, hi_{0.0f};            ///< floor(p) in [lo_, hi_) lies in a cell
@@ -197,15 +202,20 @@ inline float DensityGrid::Sampler::density(const Vec3& p_index) const {
         cells_[(static_cast<size_t>(k >> 3) * dim_y_ + (j >> 3)) * dim_x_ + (i >> 3)];
     if (cell.brick < 0) return cell.value;
     constexpr int kY = detail::kBrickEdge, kX = kY * kY;
-    const float* c = values_ + static_cast<size_t>(cell.brick) * detail::kBrickValues +
-                     ((i & 7) * kX + (j & 7) * kY + (k & 7));
+    const uint16_t* c = values_ + static_cast<size_t>(cell.brick) * detail::kBrickValues +
+                        ((i & 7) * kX + (j & 7) * kY + (k & 7));
     const Vec3 w = p_index - f;
-    // BoxSampler's order (z, then y, then x) and form a + (b - a) t. OpenVDB rounds the double
-    // product (b - a) t to float; a float product of float weights is that same single rounding
-    // (unless the compiler fuses it into an FMA: fogmap builds without -march).
+    // BoxSampler's order (z, then y, then x) and form a + (b - a) t, on the steps (trilinear is
+    // linear: value + step * q once at the end). The steps are exact floats and so are their
+    // differences; a result stays within the least and greatest step, so the sample within the
+    // cell's majorants (build_bricks), unless the compiler fuses a product into an FMA: fogmap
+    // builds without -march.
     const auto lerp = [](float a, float b, float t) { return a + (b - a) * t; };
-    return lerp(lerp(lerp(c[0], c[1], w.z), lerp(c[kY], c[kY + 1], w.z), w.y),
-                lerp(lerp(c[kX], c[kX + 1], w.z), lerp(c[kX + kY], c[kX + kY + 1], w.z), w.y), w.x);
+    const auto q = [c](int n) { return static_cast<float>(c[n]); };
+    const float steps =
+        lerp(lerp(lerp(q(0), q(1), w.z), lerp(q(kY), q(kY + 1), w.z), w.y),
+             lerp(lerp(q(kX), q(kX + 1), w.z), lerp(q(kX + kY), q(kX + kY + 1), w.z), w.y), w.x);
+    return cell.value + cell.step * steps;
 }
 
 }  // namespace fogmap

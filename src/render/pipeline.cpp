@@ -736,6 +736,7 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
                             const Checkpoints* checkpoints, const RunSetup* decided,
                             std::optional<TileShare> part) {
     RunSetup setup = decided ? *decided : resolve_run(desc);
+    const ThreadLimit threads(desc.render.threads);  // loading (bricks) and the pilot too
     const Timer timer;
     std::unique_ptr<const Scene> scene;
     agree_on_input(ranks, [&] { scene = load_scene(setup.run); });

@@ -1,8 +1,9 @@
 // DensityGrid: trilinear sampling equals hand interpolation (voxel centres at integers, 0 outside),
 // majorants bound every sample and are tight, tiles count as voxels, bad voxels are zeroed and
 // counted, the index→world matrix is GLM column-vector, and the four real VDB files of
-// /work/shared/volumes load with the figures their SOURCES.md states. The sampler (bricks built at
-// load) equals openvdb::tools::BoxSampler on the tree OpenVDB reads from the same file.
+// /work/shared/volumes load with the figures their SOURCES.md states. The sampler (bricks of 16-bit
+// steps built at load) equals openvdb::tools::BoxSampler on the tree OpenVDB reads from the same
+// file within half a step, and never leaves its cell's majorants, whatever the values' range.
 
 #include "media/density_grid.h"
 
@@ -67,6 +68,12 @@ float hand_trilinear(const std::function<float(int, int, int)>& value, const Vec
     return static_cast<float>(sum);
 }
 
+/// The most a sample can differ from the file's trilinear density by the bricks' 16-bit steps:
+/// half a step of a footprint spanning 0 .. the grid's largest value.
+float half_step(const DensityGrid& grid) {
+    return 0.5f * grid.max_density() / float(detail::kBrickSteps);
+}
+
 /// Majorant of the cell holding index point p (0 outside the majorant grid).
 float majorant_at(const MajorantGrid& m, const Vec3& p) {
     int c[3];
@@ -90,8 +97,9 @@ TEST_F(DensityGridTest, TrilinearMatchesHandInterpolation) {
     for (int n = 0; n < 2000; ++n) {
         const Vec3 p(-1.5f + rng.uniform() * (nx + 1.0f), -1.5f + rng.uniform() * (ny + 1.0f),
                      -1.5f + rng.uniform() * (nz + 1.0f));
-        // Float weights in OpenVDB vs double here: a few ulps of values <= 4.
-        EXPECT_NEAR(sampler.density(p), hand_trilinear(value, p), 2e-5f) << p.x << " " << p.y;
+        // Half a brick step (of values <= 4.5), and float weights against double here.
+        EXPECT_NEAR(sampler.density(p), hand_trilinear(value, p), half_step(*grid) + 2e-5f)
+            << p.x << " " << p.y;
     }
     EXPECT_EQ(grid->active_voxels(), static_cast<uint64_t>(nx * ny * nz));
     EXPECT_EQ(grid->name(), "density");
@@ -206,6 +214,68 @@ TEST_F(DensityGridTest, MajorantIsTightForSpikeVoxels) {
     expect_majorants_bound(*grid, 200, 12);
 }
 
+TEST_F(DensityGridTest, StepsStayWithinTheCellsMajorantsAtAnyRange) {
+    // Blocks of extreme ranges: 1 and 3e38 (a step near the float limit), a 16^3 block of values
+    // 1e-7 apart (a fine step in its first cell, whose footprint lies inside it), and 1e-30 and
+    // 1.000001e-30 (a step below the least normal float: read as their least). Every sample lies
+    // between its cell's least and greatest values, finite, exactly (no slack); at a voxel centre
+    // within half a step of the file's value, the step being the cell's footprint's range / 65535.
+    openvdb::FloatGrid::Ptr g = openvdb::FloatGrid::create(0.0f);
+    auto acc = g->getAccessor();
+    for (int v = 0; v < 512; ++v) {
+        const openvdb::Coord c(v >> 6, (v >> 3) & 7, v & 7);
+        acc.setValue(c, v % 3 == 0 ? 3.0e38f : 1.0f);
+    }
+    const auto fine = [](int x, int y, int z) {
+        return 1.0f + 1e-7f * float((x * 7 + y * 3 + z) % 512);
+    };
+    for (int x = 0; x < 16; ++x)
+        for (int y = 0; y < 16; ++y)
+            for (int z = 0; z < 16; ++z) {
+                acc.setValue(openvdb::Coord(16 + x, y, z), fine(x, y, z));
+                acc.setValue(openvdb::Coord(48 + x, y, z),
+                             (x + y + z) % 2 ? 1e-30f : 1.000001e-30f);
+            }
+    g->setName("density");
+    write_vdb(path("range.vdb"), g);
+    auto grid = DensityGrid::load(path("range.vdb"), "density", "");
+    const MajorantGrid& m = grid->majorants();
+    DensityGrid::Sampler s(*grid);
+    const auto cell_of = [&](const Vec3& p) {
+        int c[3];
+        for (int a = 0; a < 3; ++a) c[a] = int(std::floor((p[a] - m.origin[a]) / m.cell));
+        return m.index(c[0], c[1], c[2]);
+    };
+    Rng rng(17, 2);
+    for (int n = 0; n < 30000; ++n) {
+        const Vec3 p = Vec3(-1.0f) + Vec3(66.0f, 17.0f, 17.0f) *
+                                         Vec3(rng.uniform(), rng.uniform(), rng.uniform());
+        const size_t cell = cell_of(p);
+        const float d = s.density(p);
+        ASSERT_TRUE(std::isfinite(d));
+        ASSERT_LE(d, m.max_density[cell]) << p.x << " " << p.y << " " << p.z;
+        ASSERT_GE(d, m.min_density[cell]) << p.x << " " << p.y << " " << p.z;
+    }
+    const auto half_step_at = [&](const Vec3& p) {
+        const size_t c = cell_of(p);
+        return 0.5f * (m.max_density[c] - m.min_density[c]) / 65535.0f;
+    };
+    for (const Vec3& p : {Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(7, 7, 7)}) {
+        const int v = (int(p.x) << 6) | (int(p.y) << 3) | int(p.z);
+        EXPECT_NEAR(s.density(p), v % 3 == 0 ? 3.0e38f : 1.0f, 1.01f * half_step_at(p));
+    }
+    EXPECT_GT(half_step_at(Vec3(1, 2, 3)), 1e33f);
+    for (int x = 0; x < 8; ++x)
+        for (int y = 0; y < 8; y += 3)
+            for (int z = 0; z < 8; z += 2) {
+                const Vec3 p(16 + x, y, z);
+                // Half a step (< 4e-10) and the float rounding of values near 1 (6e-8).
+                EXPECT_NEAR(s.density(p), fine(x, y, z), half_step_at(p) + 1.2e-7f);
+            }
+    EXPECT_LT(half_step_at(Vec3(17, 1, 1)), 4e-10f);
+    EXPECT_EQ(s.density(Vec3(50, 2, 2)), 1e-30f);
+}
+
 TEST_F(DensityGridTest, TilesAreSampledAndBounded) {
     // Two active 128^3 tiles (level 2: tiles of the upper internal nodes), one at negative x,
     // plus one leaf voxel.
@@ -221,8 +291,10 @@ TEST_F(DensityGridTest, TilesAreSampledAndBounded) {
     Rng rng(3, 4);
     for (int n = 0; n < 500; ++n) {
         const Vec3 u(rng.uniform(), rng.uniform(), rng.uniform());
-        EXPECT_FLOAT_EQ(s.density(Vec3(0.0f, 0.0f, 0.0f) + u * 127.0f * Vec3(1, 0.98f, 1)), 0.5f);
-        EXPECT_FLOAT_EQ(s.density(Vec3(-128.0f, 0.0f, 0.0f) + u * 127.0f), 0.25f);
+        // A cell at a tile's border keeps its footprint's values as steps: half a step off.
+        EXPECT_NEAR(s.density(Vec3(0.0f, 0.0f, 0.0f) + u * 127.0f * Vec3(1, 0.98f, 1)), 0.5f,
+                    half_step(*grid));
+        EXPECT_NEAR(s.density(Vec3(-128.0f, 0.0f, 0.0f) + u * 127.0f), 0.25f, half_step(*grid));
     }
     EXPECT_FLOAT_EQ(s.density(Vec3(-0.5f, 60.0f, 60.0f)), 0.375f);
     EXPECT_FLOAT_EQ(s.density(Vec3(60.0f, 60.0f, 128.0f)), 0.0f);
@@ -272,7 +344,7 @@ TEST_F(DensityGridTest, TheSamplerKeepsABrickPerFootprintOfTwoValuesAndNoMore) {
     EXPECT_GT(bricks, 0u);
     EXPECT_LT(bricks, cells / 2);
     EXPECT_EQ(grid->sampler_bytes(),
-              cells * sizeof(detail::BrickCell) + bricks * 729 * sizeof(float));
+              cells * sizeof(detail::BrickCell) + bricks * 729 * sizeof(uint16_t));
 }
 
 TEST_F(DensityGridTest, BadVoxelsAreCountedAndZeroed) {
@@ -523,11 +595,14 @@ TEST_F(DensityGridTest, SamplerMatchesBoxSampler) {
     write_vdb(path("mix.vdb"), g);
     auto grid = DensityGrid::load(path("mix.vdb"), "density", "");
     ASSERT_EQ(grid->sanitize_stats().total(), 0u);
-    EXPECT_FLOAT_EQ(DensityGrid::Sampler(*grid).density(Vec3(4.0f, 3.5f, 11.2f)), 0.7f);
-    // Trilinear rounding is relative to the stencil's values, here <= 1: 1e-6 is ~8 float ulps
-    // of 1 (the sampler equals BoxSampler but for 1-ulp weight roundings near index 0).
+    EXPECT_NEAR(DensityGrid::Sampler(*grid).density(Vec3(4.0f, 3.5f, 11.2f)), 0.7f,
+                half_step(*grid));
+    // Half a brick step, and trilinear rounding relative to the stencil's values, here <= 1:
+    // 1e-6 is ~8 float ulps of 1.
     const std::vector<Vec3> points = comparison_points(grid->index_bounds(), 100000, rng);
-    EXPECT_LE(max_diff_vs_box_sampler(*grid, *read_raw(path("mix.vdb")), points), 1e-6f);
+    const float diff = max_diff_vs_box_sampler(*grid, *read_raw(path("mix.vdb")), points);
+    EXPECT_LE(diff, half_step(*grid) + 1e-6f);
+    EXPECT_GT(diff, 0.0f);  // the steps are not the file's floats
 }
 
 TEST_F(DensityGridTest, SamplerMatchesBoxSamplerOnSharedVolumes) {
@@ -541,7 +616,7 @@ TEST_F(DensityGridTest, SamplerMatchesBoxSamplerOnSharedVolumes) {
         const std::vector<Vec3> points = comparison_points(grid->index_bounds(), 100000, rng);
         // As above, relative to the largest voxel value.
         EXPECT_LE(max_diff_vs_box_sampler(*grid, *read_raw(file), points),
-                  1e-6f * grid->max_density());
+                  half_step(*grid) + 1e-6f * grid->max_density());
     }
 }
 
