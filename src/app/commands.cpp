@@ -752,9 +752,9 @@ int run_volume(const VolumeArgs& args) {
                          "unknown shape '" + args.shape + "'; expected cloud, plume, fireball");
     if (!has_extension(args.output, ".vdb"))
         throw InputError("", "-o", "'" + args.output + "' does not end in .vdb");
-    if (args.resolution < 2 || args.resolution > 1024)
+    if (args.resolution < 2 || args.resolution > 4096)
         throw InputError("", "--resolution",
-                         "expected 2 .. 1024, found " + std::to_string(args.resolution));
+                         "expected 2 .. 4096, found " + std::to_string(args.resolution));
     // The range every VDB grid must be in to be rendered (density_grid.cpp), and its extent the
     // world range (core/world_range.h): fogmap writes no volume it would refuse to read.
     if (!(args.voxel_size >= kMinScale && args.voxel_size <= kMaxScale))
@@ -774,6 +774,12 @@ int run_volume(const VolumeArgs& args) {
         throw InputError("", "--velocity",
                          "the cloud does not move; expected plume or fireball (or no --velocity)");
     s.velocity = args.velocity;
+    const uint64_t need = volume_memory_estimate(s), budget = memory_budget_bytes();
+    if (need > budget)
+        throw InputError("", "--resolution",
+                         std::to_string(args.resolution) + " makes grids of about " +
+                             mb_text(need) + "; expected at most the memory available (" +
+                             mb_text(budget) + ")");
     if (args.frames.empty()) {
         if (has_frame_pattern(args.output))
             throw InputError("", "-o",

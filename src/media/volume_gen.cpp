@@ -259,21 +259,25 @@ openvdb::Vec3SGrid::Ptr rise_velocity(const openvdb::FloatGrid& density,
     return vel;
 }
 
-}  // namespace
-
-void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
+/// The grids of generate_volume.
+openvdb::GridPtrVec make_grids(const VolumeGenSettings& settings) {
     init_openvdb();
     const int res = std::max(settings.resolution, 8);
     // A sequence's frames: the noise rises by kDrift units a frame (about a plume's eddy in 7).
     const Noise noise(settings.seed, Vec3(0.0f, kDrift * settings.time, 0.0f));
     const bool fire = settings.shape == VolumeShape::Fireball;
     const int zh = settings.shape != VolumeShape::Cloud ? res / 2 : static_cast<int>(0.4f * res);
-    // Slabs of one leaf's depth (8 voxels along k, leaf-aligned), merged in k order: the grid
-    // is the same whatever the thread count.
-    const int first = -zh - ((-zh % 8) + 8) % 8, slabs = (zh - first) / 8 + 1;
+    // Slabs of half an internal node's depth (64 voxels along k, aligned), merged in k order:
+    // the grid is the same whatever the thread count. Each slab's tree has its own internal
+    // nodes over the whole x-y extent (33 KB per 128^2 voxels), all held until the merge: slabs
+    // of one leaf's depth took as much memory as the grid at 2304^3.
+    constexpr int kDepth = 64;
+    const int first = -zh - ((-zh % kDepth) + kDepth) % kDepth;
+    const int slabs = (zh - first) / kDepth + 1;
     std::vector<Slab> parts(static_cast<size_t>(slabs));
     tbb::parallel_for(0, slabs, [&](int s) {
-        const int k0 = std::max(-zh, first + 8 * s), k1 = std::min(zh, first + 8 * s + 7);
+        const int k0 = std::max(-zh, first + kDepth * s);
+        const int k1 = std::min(zh, first + kDepth * s + kDepth - 1);
         parts[size_t(s)] = make_slab(settings, noise, k0, k1);
     });
     openvdb::FloatGrid::Ptr grid = openvdb::FloatGrid::create(0.0f);
@@ -298,7 +302,54 @@ void generate_volume(const VolumeGenSettings& settings, const std::string& path)
     }
     if (settings.velocity && settings.shape != VolumeShape::Cloud)
         grids.push_back(rise_velocity(*grid, settings));
-    write_grids_atomic(grids, path);
+    return grids;
+}
+
+}  // namespace
+
+void generate_volume(const VolumeGenSettings& settings, const std::string& path) {
+    write_grids_atomic(make_grids(settings), path);
+}
+
+namespace {
+
+/// Bytes of the grids made at `resolution`: their leaves', and the rest of their trees'.
+struct TreeBytes {
+    double leaves = 0.0, rest = 0.0;
+    int grids = 0;
+};
+TreeBytes tree_bytes(VolumeGenSettings settings, int resolution) {
+    settings.resolution = resolution;
+    TreeBytes b;
+    for (const openvdb::GridBase::Ptr& grid : make_grids(settings)) {
+        double leaves = 0.0;
+        grid->apply<openvdb::TypeList<openvdb::FloatGrid, openvdb::Vec3SGrid>>([&](auto& g) {
+            for (auto leaf = g.tree().cbeginLeaf(); leaf; ++leaf)
+                leaves += double(leaf->memUsage());
+        });
+        b.leaves += leaves;
+        b.rest += double(grid->memUsage()) - leaves;
+        ++b.grids;
+    }
+    return b;
+}
+
+}  // namespace
+
+uint64_t volume_memory_estimate(const VolumeGenSettings& settings) {
+    constexpr int kCoarse = 64;
+    if (settings.resolution <= 2 * kCoarse) return 0;
+    // Leaves fill the volume (r^3) and line its surface (r^2): L(r) = L(128) (r / 128)^p, p
+    // fitted through 64^3 and 128^3 within 2 .. 3.
+    const TreeBytes b1 = tree_bytes(settings, kCoarse), b2 = tree_bytes(settings, 2 * kCoarse);
+    const double x = double(settings.resolution) / (2 * kCoarse);
+    const double p =
+        std::clamp(std::log2(std::max(b2.leaves, 1.0) / std::max(b1.leaves, 1.0)), 2.0, 3.0);
+    // Internal nodes: at most one of 128^3 voxels per grid over the box (vec3s: twice a float's).
+    using Node128 = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
+    const double nodes = b2.rest + b2.grids * 2.0 * sizeof(Node128) * std::pow(x + 2.0, 3.0);
+    // A quarter more for the slabs' own nodes and the writer's buffers.
+    return uint64_t(1.25 * (b2.leaves * std::pow(x, p) + nodes));
 }
 
 void write_float_grids(const std::string& path, const std::vector<FloatGridSpec>& specs) {

@@ -332,6 +332,18 @@ TEST_F(HostileInput, VoxelSizesOutOfRangeAreRefusedOnWriteAndOnRead) {
                      {"huge_voxels.vdb", "/media/0", "voxel sizes 1e+30"});
 }
 
+TEST_F(HostileInput, AVolumeTooBigForTheMemoryIsRefusedBeforeItIsMade) {
+    // 4096^3 of cloud is about 4 billion active voxels: tens of GB, estimated from the grids
+    // made at 64^3 and 128^3, against a 2 GB address space. One error, exit 2, no file; the
+    // resolution's range itself is 2 .. 4096.
+    expect_one_error(
+        run("volume cloud --resolution 4096 -o " + path("v.vdb"), "ulimit -v 2000000; "), 2,
+        {"--resolution", "4096 makes grids of about", "memory available"});
+    EXPECT_FALSE(fs::exists(path("v.vdb")));
+    expect_one_error(run("volume cloud --resolution 4097 -o " + path("v.vdb")), 2,
+                     {"--resolution", "2 .. 4096"});
+}
+
 TEST_F(HostileInput, BitFlipsInTheVdbTransformNeverAbort) {
     const size_t at = plume_transform_offset();
     // The map stores five Vec3d (scale, voxel size, inverse scale, its square, half of it): the

@@ -113,6 +113,30 @@ TEST_F(VolumeGenTest, HighResolutionFilesStayUnderTwoMiB) {
     }
 }
 
+TEST_F(VolumeGenTest, TheMemoryEstimateBoundsTheGridsMade) {
+    // The estimate (grids made at 64^3, scaled) against the grids' own memory once made at 192^3
+    // (OpenVDB's memUsage of the file read back): at least it, and within 2x, for every shape
+    // (the fireball's temperature and the plume's velocity grid included).
+    for (VolumeShape shape : {VolumeShape::Cloud, VolumeShape::Plume, VolumeShape::Fireball}) {
+        VolumeGenSettings s;
+        s.shape = shape;
+        s.resolution = 192;
+        s.velocity = shape == VolumeShape::Plume;
+        generate_volume(s, path("m.vdb"));
+        openvdb::io::File f(path("m.vdb"));
+        f.open(/*delayLoad=*/false);
+        double made = 0.0;
+        const openvdb::GridPtrVecPtr grids = f.getGrids();
+        for (const auto& grid : *grids) made += double(grid->memUsage());
+        f.close();
+        const double estimate = double(volume_memory_estimate(s));
+        std::cout << "[ memory   ] shape " << int(shape) << ": made " << made / 1e6
+                  << " MB, estimated " << estimate / 1e6 << " MB\n";
+        EXPECT_GE(estimate, made);
+        EXPECT_LE(estimate, 2.0 * made);
+    }
+}
+
 TEST_F(VolumeGenTest, SeedDeterminesGrid) {
     VolumeGenSettings s;
     s.shape = VolumeShape::Cloud;
