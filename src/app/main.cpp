@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/memory_budget.h"
 #include "core/output_files.h"
+#include "media/density_grid.h"
 #include "media/vdb_probe.h"
 
 #include <CLI/CLI.hpp>
@@ -136,10 +137,15 @@ int main(int argc, char** argv) {
     vol->add_option("--frames", volume.frames,
                     "FIRST-LAST[:STEP]: a time-varying sequence; -o holds a frame pattern (####)");
 
-    std::string probe_path;
+    VdbChildTask child;
     CLI::App* probe = app.add_subcommand("__probe-vdb", "the child of vdb_probe.h");
     probe->group("");  // hidden from --help
-    probe->add_option("file", probe_path)->required();
+    probe->add_option("file", child.path)->required();
+    probe->add_option("--what", child.what)->required();
+    probe->add_option("--grid", child.grid);
+    probe->add_option("--threads", child.threads);
+    probe->add_option("--cpu-seconds", child.cpu_s)->required();
+    probe->add_option("--memory-bytes", child.memory_bytes)->required();
 
     const Subcommand extra[] = {add_validate_command(app), add_bench_command(app),
                                 add_merge_command(app)};
@@ -191,7 +197,7 @@ int main(int argc, char** argv) {
                                            r->get_option("--alpha")->as<std::string>());
             return run_render(render);
         }
-        if (*probe) return run_vdb_probe_child(probe_path);
+        if (*probe) return run_vdb_child(child);
         if (*info) return run_info(info_path, info_json);
         if (*vol) return run_volume(volume);
         for (const Subcommand& sub : extra)

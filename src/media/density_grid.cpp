@@ -1,7 +1,9 @@
 #include "media/density_grid.h"
 
 #include "core/error.h"
+#include "core/fd_stream.h"
 #include "core/memory_budget.h"
+#include "core/parallel.h"
 #include "core/world_range.h"
 #include "media/vdb_probe.h"
 
@@ -14,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <limits>
 #include <mutex>
 
@@ -389,7 +392,9 @@ GridMemory grid_memory(const std::string& path, const std::string& grid_name) {
     CoordBBox active;
     if (!grid_metadata(path, grid_name, &m.tree, &active)) return m;
     m.known = true;
-    m.sampler = uint64_t(sampler_size(active, max_leaves(m.tree)).bytes);
+    const SamplerSize size = sampler_size(active, max_leaves(m.tree));
+    m.sampler = uint64_t(size.bytes);
+    m.cells = uint64_t(size.cells);
     return m;
 }
 
@@ -417,7 +422,6 @@ openvdb::GridBase::Ptr read_grid(const std::string& path, const std::string& gri
     init_openvdb();
     check_vdb_file(path, field);
     check_before_reading(path, field, grid_name);
-    probe_vdb(path, field);  // OpenVDB 10.0 can crash on a corrupt file: read it in a child first
     openvdb::GridBase::Ptr base;
     DMat4 index_to_world(1.0);
     try {
@@ -485,6 +489,9 @@ struct GridBuilder {
     static std::unique_ptr<DensityGrid> build(FloatTree& tree, const DMat4& index_to_world,
                                               const std::string& path, const std::string& field,
                                               const std::string& grid_name);
+    /// A grid through a stream (the reader child's result), every member.
+    static void send(const DensityGrid& grid, FdWriter& out);
+    static std::unique_ptr<DensityGrid> receive(FdReader& in);
     /// The grids of a vec3s grid's parts, named grid_name[names[n]], without the load warnings
     /// a part's emptiness would give (it is not the medium's).
     template <size_t N>
@@ -501,16 +508,16 @@ struct GridBuilder {
     }
 };
 
-std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
-                                               const std::string& grid_name,
-                                               const std::string& field) {
+namespace {
+
+/// DensityGrid::load in this process.
+std::unique_ptr<DensityGrid> read_density(const std::string& path, const std::string& grid_name,
+                                          const std::string& field) {
     DMat4 index_to_world(1.0);
     const FloatGrid::Ptr grid =
         read_typed_grid<FloatGrid>(path, grid_name, field, "a float grid", &index_to_world);
     return GridBuilder::build(grid->tree(), index_to_world, path, field, grid_name);
 }
-
-namespace {
 
 /// Sets `tree`'s value where the value iterator `it` stands (a voxel or a tile) to x, active.
 template <class Iter>
@@ -545,12 +552,11 @@ void put_signed(const Iter& it, float x, FloatTree* plus, FloatTree* minus, uint
     put_value(minus, it, std::max(-x, 0.0f));
 }
 
-}  // namespace
-
-std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std::string& path,
-                                                                       const std::string& grid_name,
-                                                                       const std::string& field,
-                                                                       uint64_t* clamped) {
+/// DensityGrid::load_channels in this process.
+std::array<std::unique_ptr<DensityGrid>, 3> read_channels(const std::string& path,
+                                                          const std::string& grid_name,
+                                                          const std::string& field,
+                                                          uint64_t* clamped) {
     DMat4 index_to_world(1.0);
     const auto grid = read_typed_grid<openvdb::Vec3SGrid>(
         path, grid_name, field, "a vec3s grid (a colour per voxel)", &index_to_world);
@@ -569,9 +575,10 @@ std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std
     return GridBuilder::build_parts(trees, index_to_world, path, field, grid_name, {"0", "1", "2"});
 }
 
-std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std::string& path,
-                                                                       const std::string& grid_name,
-                                                                       const std::string& field) {
+/// DensityGrid::load_velocity in this process.
+std::array<std::unique_ptr<DensityGrid>, 6> read_velocity(const std::string& path,
+                                                          const std::string& grid_name,
+                                                          const std::string& field) {
     DMat4 index_to_world(1.0);
     // Part 2c + s: axis c's positive (s = 0) or negative (s = 1) part.
     std::array<FloatTree, 6> trees;  // background 0
@@ -612,6 +619,8 @@ std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std
     return GridBuilder::build_parts(trees, index_to_world, path, field, grid_name,
                                     {"x+", "x-", "y+", "y-", "z+", "z-"});
 }
+
+}  // namespace
 
 std::unique_ptr<DensityGrid> GridBuilder::build(FloatTree& tree, const DMat4& index_to_world,
                                                 const std::string& path, const std::string& field,
@@ -694,10 +703,12 @@ DensityGrid::Sampler::Sampler(const DensityGrid& grid)
     }
 }
 
-std::vector<GridInfo> inspect_vdb(const std::string& path) {
+namespace {
+
+/// inspect_vdb in this process.
+std::vector<GridInfo> read_infos(const std::string& path) {
     init_openvdb();
     check_vdb_file(path, "");
-    probe_vdb(path, "");
     std::vector<GridInfo> infos;
     try {
         openvdb::io::File file(path);
@@ -753,6 +764,200 @@ std::vector<GridInfo> inspect_vdb(const std::string& path) {
         throw InputError(path, "", vdb_error_reason(e.what()));
     }
     return infos;
+}
+
+}  // namespace
+
+void GridBuilder::send(const DensityGrid& g, FdWriter& out) {
+    out.values(g.bricks_.cells);
+    out.values(g.bricks_.values);
+    out.value(g.index_to_world_);
+    out.value(g.index_bounds_);
+    out.value(g.max_density_);
+    const MajorantGrid& m = g.majorants_;
+    out.value(m.origin);
+    out.value(m.dims);
+    out.value(m.cell);
+    out.values(m.max_density);
+    out.values(m.min_density);
+    out.value(g.sanitize_);
+    out.value(g.active_voxels_);
+    out.text(g.name_);
+    out.value(uint64_t(g.warnings_.size()));
+    for (const std::string& w : g.warnings_) out.text(w);
+}
+
+std::unique_ptr<DensityGrid> GridBuilder::receive(FdReader& in) {
+    std::unique_ptr<DensityGrid> g(new DensityGrid());
+    in.values(&g->bricks_.cells);
+    in.values(&g->bricks_.values);
+    g->index_to_world_ = in.value<DMat4>();
+    g->index_bounds_ = in.value<Box3>();
+    g->max_density_ = in.value<float>();
+    MajorantGrid& m = g->majorants_;
+    m.origin = in.value<std::array<int, 3>>();
+    m.dims = in.value<std::array<int, 3>>();
+    m.cell = in.value<int>();
+    in.values(&m.max_density);
+    in.values(&m.min_density);
+    g->sanitize_ = in.value<SanitizeStats>();
+    g->active_voxels_ = in.value<uint64_t>();
+    g->name_ = in.text();
+    g->warnings_.resize(in.value<uint64_t>());
+    for (std::string& w : g->warnings_) w = in.text();
+    return g;
+}
+
+namespace {
+
+void send_info(const GridInfo& g, FdWriter& out) {
+    out.text(g.name);
+    out.text(g.value_type);
+    out.text(g.grid_class);
+    out.value(g.voxel_size);
+    out.value(g.translation);
+    out.value(g.index_min);
+    out.value(g.index_max);
+    out.value(g.world_bounds);
+    out.value(g.active_voxels);
+    out.value(g.active_tiles);
+    out.value(g.min_value);
+    out.value(g.max_value);
+    out.value(g.scalar);
+}
+
+GridInfo receive_info(FdReader& in) {
+    GridInfo g;
+    g.name = in.text();
+    g.value_type = in.text();
+    g.grid_class = in.text();
+    g.voxel_size = in.value<Vec3>();
+    g.translation = in.value<Vec3>();
+    g.index_min = in.value<std::array<int, 3>>();
+    g.index_max = in.value<std::array<int, 3>>();
+    g.world_bounds = in.value<Box3>();
+    g.active_voxels = in.value<uint64_t>();
+    g.active_tiles = in.value<uint64_t>();
+    g.min_value = in.value<double>();
+    g.max_value = in.value<double>();
+    g.scalar = in.value<bool>();
+    return g;
+}
+
+/// What the child needs to build `grids` samplers from grid `grid_name` (or its .x, .y and .z
+/// float grids) besides reading the file: the trees it splits them into, and the samplers' memory
+/// and time (10 microseconds a cell, 20 MB a second of bricks: several times what they take
+/// here), from the file's metadata; without it, 16 bytes and a microsecond per file byte.
+ChildNeeds child_needs(const std::string& path, const std::string& grid_name, int grids) {
+    GridMemory m = grid_memory(path, grid_name);
+    if (!m.known) {
+        m = grid_memory(path, grid_name + ".x");
+        m.tree *= 3;
+    }
+    std::error_code ec;
+    const double file = double(std::filesystem::file_size(path, ec));
+    ChildNeeds needs;
+    if (m.known) {
+        needs.bytes = 2 * m.tree + uint64_t(grids) * m.sampler;
+        needs.cpu_s = grids * (1e-5 * double(m.cells) + double(m.sampler) / 20e6);
+    } else {
+        needs.bytes = uint64_t(grids) * 16 * uint64_t(file);
+        needs.cpu_s = grids * 1e-6 * file;
+    }
+    return needs;
+}
+
+/// The `count` grids the child makes of grid `grid_name` as `what` asks, and its count of
+/// values clamped (load_channels').
+std::vector<std::unique_ptr<DensityGrid>> load_in_child(const std::string& what,
+                                                        const std::string& path,
+                                                        const std::string& grid_name,
+                                                        const std::string& field, size_t count,
+                                                        uint64_t* clamped) {
+    init_openvdb();
+    check_vdb_file(path, field);
+    check_before_reading(path, field, grid_name);
+    std::vector<std::unique_ptr<DensityGrid>> grids;
+    const std::vector<std::string> args = {
+        "--what", what, "--grid", grid_name, "--threads", std::to_string(active_thread_count())};
+    read_in_child(path, field, args, child_needs(path, grid_name, int(count)), [&](FdReader& in) {
+        const uint64_t clamped_values = in.value<uint64_t>();
+        if (clamped) *clamped = clamped_values;
+        for (size_t n = 0; n < count; ++n) grids.push_back(GridBuilder::receive(in));
+    });
+    return grids;
+}
+
+template <size_t N>
+std::array<std::unique_ptr<DensityGrid>, N> to_array(std::vector<std::unique_ptr<DensityGrid>> v) {
+    std::array<std::unique_ptr<DensityGrid>, N> out;
+    for (size_t n = 0; n < N; ++n) out[n] = std::move(v[n]);
+    return out;
+}
+
+}  // namespace
+
+std::unique_ptr<DensityGrid> DensityGrid::load(const std::string& path,
+                                               const std::string& grid_name,
+                                               const std::string& field) {
+    if (!vdb_probe_enabled()) return read_density(path, grid_name, field);
+    return std::move(load_in_child("density", path, grid_name, field, 1, nullptr)[0]);
+}
+
+std::array<std::unique_ptr<DensityGrid>, 3> DensityGrid::load_channels(const std::string& path,
+                                                                       const std::string& grid_name,
+                                                                       const std::string& field,
+                                                                       uint64_t* clamped) {
+    if (!vdb_probe_enabled()) return read_channels(path, grid_name, field, clamped);
+    return to_array<3>(load_in_child("colour", path, grid_name, field, 3, clamped));
+}
+
+std::array<std::unique_ptr<DensityGrid>, 6> DensityGrid::load_velocity(const std::string& path,
+                                                                       const std::string& grid_name,
+                                                                       const std::string& field) {
+    if (!vdb_probe_enabled()) return read_velocity(path, grid_name, field);
+    return to_array<6>(load_in_child("velocity", path, grid_name, field, 6, nullptr));
+}
+
+std::vector<GridInfo> inspect_vdb(const std::string& path) {
+    if (!vdb_probe_enabled()) return read_infos(path);
+    init_openvdb();
+    check_vdb_file(path, "");
+    std::vector<GridInfo> infos;
+    read_in_child(path, "", {"--what", "info"}, ChildNeeds{}, [&](FdReader& in) {
+        infos.resize(in.value<uint64_t>());
+        for (GridInfo& g : infos) g = receive_info(in);
+    });
+    return infos;
+}
+
+int run_vdb_child(const VdbChildTask& task) {
+    const ThreadLimit threads(task.threads);
+    return run_reader_child(task.path, task.cpu_s, task.memory_bytes, [&](FdWriter& out) {
+        // Everything is read and built before the mark: an error until then is a message.
+        if (task.what == "info") {
+            const std::vector<GridInfo> infos = read_infos(task.path);
+            send_result_mark(out);
+            out.value(uint64_t(infos.size()));
+            for (const GridInfo& g : infos) send_info(g, out);
+            return;
+        }
+        std::vector<std::unique_ptr<DensityGrid>> grids;
+        uint64_t clamped = 0;
+        if (task.what == "density") {
+            grids.push_back(read_density(task.path, task.grid, ""));
+        } else if (task.what == "colour") {
+            for (auto& g : read_channels(task.path, task.grid, "", &clamped))
+                grids.push_back(std::move(g));
+        } else if (task.what == "velocity") {
+            for (auto& g : read_velocity(task.path, task.grid, "")) grids.push_back(std::move(g));
+        } else {
+            throw std::logic_error("__probe-vdb: unknown --what '" + task.what + "'");
+        }
+        send_result_mark(out);
+        out.value(clamped);
+        for (const auto& g : grids) GridBuilder::send(*g, out);
+    });
 }
 
 }  // namespace fogmap

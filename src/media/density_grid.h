@@ -49,11 +49,24 @@ struct GridInfo {
 struct GridMemory {
     bool known = false;
     uint64_t tree = 0, sampler = 0;
+    uint64_t cells = 0;  ///< the sampler's cells of 8^3 voxels
 };
 GridMemory grid_memory(const std::string& path, const std::string& grid_name);
 
 /// Lists every grid of a VDB file. Throws InputError{path, "", reason} if unreadable.
 std::vector<GridInfo> inspect_vdb(const std::string& path);
+
+/// `fogmap __probe-vdb` (media/vdb_probe.h): the child reading a VDB file for its parent, which
+/// receives what `what` asks: "info" (inspect_vdb), "density" (DensityGrid::load), "colour"
+/// (load_channels) or "velocity" (load_velocity) of grid `grid`, built on `threads` threads
+/// within `cpu_s` CPU seconds and `memory_bytes` of address space. Returns the exit code.
+struct VdbChildTask {
+    std::string what, path, grid;
+    int threads = 0;
+    double cpu_s = 0.0;
+    uint64_t memory_bytes = 0;
+};
+int run_vdb_child(const VdbChildTask& task);
 
 /// The grid names of a VDB file, in file order, from its header alone (no grid is read).
 /// Throws InputError{path, field, reason} if unreadable.

@@ -1,6 +1,7 @@
 #include "media/vdb_probe.h"
 
 #include "core/error.h"
+#include "core/fd_stream.h"
 #include "core/input_file.h"
 #include "core/memory_budget.h"
 
@@ -21,9 +22,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <new>
-#include <set>
 #include <stdexcept>
 
 extern char** environ;
@@ -48,8 +49,7 @@ constexpr size_t kMaxMessageBytes = 300;
 
 struct ProbeState {
     std::mutex mutex;
-    std::string self_exe;          ///< "" = probe off
-    std::set<std::string> passed;  ///< paths whose probe exited 0
+    std::string self_exe;  ///< "" = probe off
 };
 
 ProbeState& probe_state() {
@@ -79,7 +79,7 @@ uint64_t file_bytes(const std::string& path) {
 struct ChildResult {
     int status = 0;
     double cpu_s = 0.0;  ///< the child's CPU time, user and system
-    std::string out;     ///< the child's stdout, first bytes only
+    std::string out;     ///< the child's output after its result, or all of it: first bytes only
 };
 
 /// Appends what `fd` has to `out` (bounded); false at end of file.
@@ -90,17 +90,27 @@ bool read_some(int fd, std::string& out) {
     return n > 0 || (n < 0 && errno == EINTR);
 }
 
-/// Runs `exe __probe-vdb -- path` (no shell), stdout piped back, stdin and stderr /dev/null,
-/// until it exits (its CPU-time limit is its own: run_vdb_probe_child). fork + exec rather than
-/// posix_spawn, to set PR_SET_PDEATHSIG in the child: it then gets SIGKILL when its parent dies
-/// (and exits at once if the parent died before the call). Between fork and exec the child makes
-/// only async-signal-safe calls.
-ChildResult run_child(const std::string& exe, const std::string& path) {
+/// The first bytes of a child's output when a result follows (a message never starts so).
+constexpr char kResultMark[8] = {'\x01', 'f', 'o', 'g', 'v', 'd', 'b', '\n'};
+
+/// Runs `exe __probe-vdb ARGS... -- path` (no shell), stdout piped back, stdin and stderr
+/// /dev/null; `receive` reads the result when the output starts with kResultMark, the rest is
+/// kept as the message; then waits for the child (its CPU-time limit is its own:
+/// run_reader_child). fork + exec rather than posix_spawn, to set PR_SET_PDEATHSIG in the child:
+/// it then gets SIGKILL when its parent dies (and exits at once if the parent died before the
+/// call). Between fork and exec the child makes only async-signal-safe calls.
+ChildResult run_child(const std::string& exe, const std::string& path,
+                      const std::vector<std::string>& child_args, bool* received,
+                      const std::function<void(FdReader&)>& receive) {
     int fds[2];
     if (pipe2(fds, O_CLOEXEC) != 0)
         throw std::runtime_error(std::string("VDB probe: pipe: ") + std::strerror(errno));
-    std::string args[] = {"fogmap", "__probe-vdb", "--", path};
-    char* argv[] = {args[0].data(), args[1].data(), args[2].data(), args[3].data(), nullptr};
+    std::vector<std::string> args = {"fogmap", "__probe-vdb"};
+    args.insert(args.end(), child_args.begin(), child_args.end());
+    args.insert(args.end(), {"--", path});
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
     const pid_t parent = getpid();
     const pid_t pid = fork();
     if (pid == 0) {
@@ -110,7 +120,7 @@ ChildResult run_child(const std::string& exe, const std::string& path) {
         if (null_in < 0 || null_err < 0 || dup2(null_in, STDIN_FILENO) < 0 ||
             dup2(fds[1], STDOUT_FILENO) < 0 || dup2(null_err, STDERR_FILENO) < 0)
             _exit(127);
-        execve(exe.c_str(), argv, environ);
+        execve(exe.c_str(), argv.data(), environ);
         _exit(127);
     }
     const int fork_errno = errno;
@@ -120,27 +130,33 @@ ChildResult run_child(const std::string& exe, const std::string& path) {
         throw std::runtime_error("VDB probe: cannot run '" + exe +
                                  "': " + std::strerror(fork_errno));
     }
-
+    // Blocking reads: the child either writes, ends (end of file) or is ended by its CPU limit.
     ChildResult r;
-    bool open = true;
-    for (;;) {
-        rusage usage{};
-        const pid_t done = wait4(pid, &r.status, WNOHANG, &usage);
-        if (done == pid) {
-            r.cpu_s = double(usage.ru_utime.tv_sec) + double(usage.ru_stime.tv_sec) +
-                      1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-            break;
+    FdReader in(fds[0]);
+    *received = false;
+    try {
+        char mark[sizeof kResultMark] = {};
+        in.bytes(mark, 1);
+        r.out.assign(mark, 1);
+        if (mark[0] == kResultMark[0]) {
+            in.bytes(mark + 1, sizeof mark - 1);
+            r.out.clear();
+            if (std::memcmp(mark, kResultMark, sizeof mark) == 0) {
+                receive(in);
+                *received = true;
+            }
         }
-        if (done < 0 && errno != EINTR) {
-            close(fds[0]);
-            throw std::runtime_error(std::string("VDB probe: waitpid: ") + std::strerror(errno));
-        }
-        // Wakes on output or end of file; after that, short sleeps until the child is reaped.
-        pollfd p{fds[0], POLLIN, 0};
-        if (poll(&p, open ? 1 : 0, open ? 100 : 1) > 0) open = read_some(fds[0], r.out);
+    } catch (const StreamEnd&) {  // the exit status says why
     }
-    while (open) open = read_some(fds[0], r.out);  // the child has exited
+    while (read_some(fds[0], r.out)) {
+    }
     close(fds[0]);
+    rusage usage{};
+    while (wait4(pid, &r.status, 0, &usage) < 0)
+        if (errno != EINTR)
+            throw std::runtime_error(std::string("VDB probe: waitpid: ") + std::strerror(errno));
+    r.cpu_s = double(usage.ru_utime.tv_sec) + double(usage.ru_stime.tv_sec) +
+              1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
     return r;
 }
 
@@ -255,13 +271,30 @@ void enable_vdb_probe(std::string self_exe) {
     state.self_exe = std::move(self_exe);
 }
 
-void probe_vdb(const std::string& path, const std::string& field) {
+bool vdb_probe_enabled() {
     ProbeState& state = probe_state();
     const std::lock_guard<std::mutex> lock(state.mutex);
-    if (state.self_exe.empty() || state.passed.count(path)) return;
+    return !state.self_exe.empty();
+}
+
+void read_in_child(const std::string& path, const std::string& field,
+                   const std::vector<std::string>& args, const ChildNeeds& needs,
+                   const std::function<void(FdReader&)>& receive) {
+    std::string exe;
+    {
+        ProbeState& state = probe_state();
+        const std::lock_guard<std::mutex> lock(state.mutex);
+        exe = state.self_exe;
+    }
+    if (exe.empty()) throw std::logic_error("read_in_child: the probe is off");
     const uint64_t bytes = file_bytes(path);
-    const rlim_t cpu_s = cpu_limit_s(bytes);
-    const ChildResult r = run_child(state.self_exe, path);
+    const rlim_t cpu_s = cpu_limit_s(bytes) + rlim_t(std::ceil(needs.cpu_s));
+    const uint64_t as_bytes = kBaseBytes + kBytesPerFileByte * bytes + needs.bytes;
+    std::vector<std::string> all = args;
+    all.insert(all.end(), {"--cpu-seconds", std::to_string(cpu_s), "--memory-bytes",
+                           std::to_string(as_bytes)});
+    bool received = false;
+    const ChildResult r = run_child(exe, path, all, &received, receive);
     // SIGXCPU at the soft limit, SIGKILL at the hard one a second later.
     const bool out_of_time = WIFSIGNALED(r.status) &&
                              (WTERMSIG(r.status) == SIGXCPU || WTERMSIG(r.status) == SIGKILL) &&
@@ -276,46 +309,48 @@ void probe_vdb(const std::string& path, const std::string& field) {
                          "corrupt VDB file: OpenVDB's reader crashed on it (signal " +
                              std::to_string(WTERMSIG(r.status)) + ")");
     const int code = WIFEXITED(r.status) ? WEXITSTATUS(r.status) : -1;
-    if (code == 127)
-        throw std::runtime_error("VDB probe: cannot run '" + state.self_exe + "' for " + path);
+    if (code == 127) throw std::runtime_error("VDB probe: cannot run '" + exe + "' for " + path);
     if (code == 2) throw InputError(path, field, message(r.out));
-    if (code != 0)
+    if (code != 0 || !received)
         throw InputError(path, field,
                          "corrupt VDB file: OpenVDB's reader failed on it (exit code " +
                              std::to_string(code) + ")");
-    state.passed.insert(path);
 }
 
-int run_vdb_probe_child(const std::string& path) {
-    const uint64_t bytes = file_bytes(path);
+int run_reader_child(const std::string& path, double cpu_s, uint64_t as_bytes,
+                     const std::function<void(FdWriter&)>& send) {
     const rlimit no_core{0, 0};
     setrlimit(RLIMIT_CORE, &no_core);  // a crash must not leave a core file behind
-    const rlim_t cpu_s = cpu_limit_s(bytes);
-    const rlimit cpu{cpu_s, cpu_s + 1};
+    const rlimit cpu{rlim_t(cpu_s), rlim_t(cpu_s) + 1};
     setrlimit(RLIMIT_CPU, &cpu);
-    const rlim_t as_bytes = kBaseBytes + kBytesPerFileByte * bytes;
 #ifndef __SANITIZE_ADDRESS__  // AddressSanitizer reserves terabytes of address space up front
-    const rlimit as{as_bytes, as_bytes};
+    const rlimit as{rlim_t(as_bytes), rlim_t(as_bytes)};
     setrlimit(RLIMIT_AS, &as);
 #endif
     try {
         openvdb::initialize();
-        openvdb::io::File file(path);
-        file.open(/*delayLoad=*/false);
-        for (auto it = file.beginName(); it != file.endName(); ++it) file.readGrid(*it);
-        file.close();
+        FdWriter out(STDOUT_FILENO);
+        // The result is built before the mark is written: an error before it is a message.
+        send(out);
         return 0;
     } catch (const std::bad_alloc&) {
         std::printf(
             "corrupt VDB file: reading it needs more than the %llu MB memory limit for a "
             "%llu-byte file\n",
             static_cast<unsigned long long>(as_bytes >> 20),
-            static_cast<unsigned long long>(bytes));
+            static_cast<unsigned long long>(file_bytes(path)));
+    } catch (const InputError& e) {
+        std::printf("%s\n", e.reason.c_str());
+    } catch (const StreamEnd&) {
+        return 3;  // the parent stopped reading
     } catch (const std::exception& e) {
         std::printf("%s\n", vdb_error_reason(e.what()).c_str());
     }
+    std::fflush(stdout);
     return 2;
 }
+
+void send_result_mark(FdWriter& out) { out.bytes(kResultMark, sizeof kResultMark); }
 
 std::string vdb_error_reason(const std::string& what) {
     const auto has = [&](const char* s) { return what.find(s) != std::string::npos; };

@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "media/vdb_probe.h"
 #include "media/volume_gen.h"
 #include "test_support.h"
 
@@ -729,6 +730,105 @@ TEST_F(DensityGridTest, InspectListsGridsWithSourcesFigures) {
     EXPECT_EQ(smoke[0].index_max, (std::array<int, 3>{111, 223, 112}));
 
     EXPECT_THROW(inspect_vdb(path("absent.vdb")), InputError);
+}
+
+}  // namespace
+}  // namespace fogmap
+
+namespace fogmap {
+namespace {
+
+/// The probe on (files read by the fogmap binary in a child) while it lives.
+struct ProbeOn {
+    ProbeOn() { enable_vdb_probe(FOGMAP_BINARY); }
+    ~ProbeOn() { enable_vdb_probe(""); }
+};
+
+/// Every figure of two grids, and their samples at `n` points of a's box, are equal.
+void expect_same_grid(const DensityGrid& a, const DensityGrid& b, int n) {
+    EXPECT_EQ(a.name(), b.name());
+    EXPECT_EQ(a.index_to_world(), b.index_to_world());
+    EXPECT_EQ(a.index_bounds().lo, b.index_bounds().lo);
+    EXPECT_EQ(a.index_bounds().hi, b.index_bounds().hi);
+    EXPECT_EQ(a.max_density(), b.max_density());
+    EXPECT_EQ(a.active_voxels(), b.active_voxels());
+    EXPECT_EQ(a.sanitize_stats().total(), b.sanitize_stats().total());
+    EXPECT_EQ(a.warnings(), b.warnings());
+    EXPECT_EQ(a.sampler_bytes(), b.sampler_bytes());
+    EXPECT_EQ(a.majorants().max_density, b.majorants().max_density);
+    EXPECT_EQ(a.majorants().min_density, b.majorants().min_density);
+    EXPECT_EQ(a.majorants().dims, b.majorants().dims);
+    DensityGrid::Sampler sa(a), sb(b);
+    Rng rng(5, 5);
+    const Box3& box = a.index_bounds();
+    int differ = 0;
+    for (int i = 0; i < n; ++i) {
+        const Vec3 p = box.lo + box.extent() * Vec3(rng.uniform(), rng.uniform(), rng.uniform());
+        differ += !(sa.density(p) == sb.density(p));
+    }
+    EXPECT_EQ(differ, 0);
+}
+
+TEST(VdbChild, TheChildSendsWhatThisProcessReads) {
+    // The same files read here (the probe off) and by the fogmap binary in a child: density (the
+    // shared smoke, a grid with a sanitized voxel and its warning), a colour grid with clamped
+    // values, a velocity grid, and `fogmap info`'s figures.
+    test::TempDir tmp("fogmap_child");
+    const auto at = [&](const std::string& n) { return (tmp.path() / n).string(); };
+    openvdb::initialize();
+    openvdb::Vec3SGrid::Ptr colour = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+    openvdb::FloatGrid::Ptr density = openvdb::FloatGrid::create(0.0f);
+    for (int n = 0; n < 4000; ++n) {
+        const openvdb::Coord c(n % 20, (n / 20) % 20, n / 400);
+        colour->tree().setValue(c, openvdb::Vec3s(0.1f * (n % 13), 0.5f, 0.05f * (n % 7)));
+        density->tree().setValue(c, n == 7 ? -1.0f : 0.001f * float(n % 97));
+    }
+    colour->setName("Cd");
+    density->setName("density");
+    openvdb::io::File(at("cd.vdb")).write({colour, density});
+    VolumeGenSettings plume;
+    plume.resolution = 40;
+    plume.velocity = true;
+    generate_volume(plume, at("vel.vdb"));
+    const std::string smoke = shared_file("smoke1.vdb");
+
+    const auto here_density = DensityGrid::load(at("cd.vdb"), "density", "");
+    uint64_t here_clamped = 0, child_clamped = 0;
+    const auto here_colour = DensityGrid::load_channels(at("cd.vdb"), "Cd", "", &here_clamped);
+    const auto here_velocity = DensityGrid::load_velocity(at("vel.vdb"), "vel", "");
+    const auto here_info = inspect_vdb(at("cd.vdb"));
+    const auto here_smoke = smoke.empty() ? nullptr : DensityGrid::load(smoke, "density", "");
+    const ProbeOn probe;
+    expect_same_grid(*here_density, *DensityGrid::load(at("cd.vdb"), "density", ""), 20000);
+    EXPECT_EQ(here_density->warnings().size(), 1u);
+    const auto child_colour = DensityGrid::load_channels(at("cd.vdb"), "Cd", "", &child_clamped);
+    EXPECT_EQ(here_clamped, child_clamped);
+    EXPECT_GT(child_clamped, 0u);
+    for (int c = 0; c < 3; ++c) expect_same_grid(*here_colour[c], *child_colour[c], 5000);
+    const auto child_velocity = DensityGrid::load_velocity(at("vel.vdb"), "vel", "");
+    for (int c = 0; c < 6; ++c) expect_same_grid(*here_velocity[c], *child_velocity[c], 5000);
+    const auto child_info = inspect_vdb(at("cd.vdb"));
+    ASSERT_EQ(here_info.size(), child_info.size());
+    for (size_t g = 0; g < here_info.size(); ++g) {
+        EXPECT_EQ(here_info[g].name, child_info[g].name);
+        EXPECT_EQ(here_info[g].value_type, child_info[g].value_type);
+        EXPECT_EQ(here_info[g].active_voxels, child_info[g].active_voxels);
+        EXPECT_EQ(here_info[g].index_max, child_info[g].index_max);
+        EXPECT_EQ(here_info[g].world_bounds.hi, child_info[g].world_bounds.hi);
+        EXPECT_EQ(here_info[g].max_value, child_info[g].max_value);
+        EXPECT_EQ(here_info[g].scalar, child_info[g].scalar);
+    }
+    if (smoke.empty()) return test::missing_shared_volume(kShared);
+    expect_same_grid(*here_smoke, *DensityGrid::load(smoke, "density", ""), 100000);
+    // An error in the child is the same one line.
+    try {
+        DensityGrid::load(at("cd.vdb"), "nope", "/media/3");
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_EQ(e.file, at("cd.vdb"));
+        EXPECT_EQ(e.field, "/media/3");
+        EXPECT_EQ(e.reason, "no grid 'nope'; grids present: Cd, density");
+    }
 }
 
 }  // namespace
