@@ -7,6 +7,7 @@
 #include "core/world_range.h"
 #include "media/vdb_probe.h"
 
+#include <malloc.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/Count.h>
@@ -954,6 +955,9 @@ int run_vdb_child(const VdbChildTask& task) {
         } else {
             throw std::logic_error("__probe-vdb: unknown --what '" + task.what + "'");
         }
+        // OpenVDB's tree is gone, but its many small blocks stay in malloc's arenas: handed back
+        // to the system, so that this process and its parent, receiving, do not hold both.
+        malloc_trim(0);
         send_result_mark(out);
         out.value(clamped);
         for (const auto& g : grids) GridBuilder::send(*g, out);
