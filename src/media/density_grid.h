@@ -118,7 +118,9 @@ class DensityGrid {
 public:
     static constexpr int kMajorantCell = 8;
 
-    /// Reads float grid `grid_name` from `path`. `field` is the JSON pointer quoted in errors.
+    /// Reads float grid `grid_name` from `path`: in a child process when the probe is on
+    /// (vdb_probe.h; the same grid, sent back), else here. load_channels and load_velocity read
+    /// likewise. `field` is the JSON pointer quoted in errors.
     /// Throws InputError: missing/unreadable file; no such grid (message lists the file's grids);
     /// grid not float (message names its type).
     static std::unique_ptr<DensityGrid> load(const std::string& path, const std::string& grid_name,

@@ -8,7 +8,6 @@
 #include <openvdb/openvdb.h>
 
 #include <fcntl.h>
-#include <poll.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -16,6 +15,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -147,6 +147,12 @@ ChildResult run_child(const std::string& exe, const std::string& path,
             }
         }
     } catch (const StreamEnd&) {  // the exit status says why
+    } catch (...) {               // the parent failed (out of memory): no child reads on
+        kill(pid, SIGKILL);
+        close(fds[0]);
+        while (waitpid(pid, nullptr, 0) < 0 && errno == EINTR) {
+        }
+        throw;
     }
     while (read_some(fds[0], r.out)) {
     }

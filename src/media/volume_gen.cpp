@@ -337,19 +337,22 @@ TreeBytes tree_bytes(VolumeGenSettings settings, int resolution) {
 }  // namespace
 
 uint64_t volume_memory_estimate(const VolumeGenSettings& settings) {
-    constexpr int kCoarse = 64;
-    if (settings.resolution <= 2 * kCoarse) return 0;
-    // Leaves fill the volume (r^3) and line its surface (r^2): L(r) = L(128) (r / 128)^p, p
-    // fitted through 64^3 and 128^3 within 2 .. 3.
-    const TreeBytes b1 = tree_bytes(settings, kCoarse), b2 = tree_bytes(settings, 2 * kCoarse);
-    const double x = double(settings.resolution) / (2 * kCoarse);
-    const double p =
-        std::clamp(std::log2(std::max(b2.leaves, 1.0) / std::max(b1.leaves, 1.0)), 2.0, 3.0);
+    if (settings.resolution <= 128) return 0;
+    // Leaves fill the volume (x^3) and line its surface (x^2): L(x) = v x^3 + s x^2 through the
+    // grids made at two coarser resolutions (at most 256, a few seconds), x in the coarser one's
+    // units; a negative part is dropped and the other fitted to the finer resolution alone.
+    const int fine = std::min(settings.resolution / 2, 256), coarse = fine / 2;
+    const TreeBytes b1 = tree_bytes(settings, coarse), b2 = tree_bytes(settings, fine);
+    double v = (b2.leaves - 4.0 * b1.leaves) / 4.0, s = b1.leaves - v;
+    if (v < 0.0) v = 0.0, s = b2.leaves / 4.0;
+    if (s < 0.0) s = 0.0, v = b2.leaves / 8.0;
+    const double x = double(settings.resolution) / coarse;
     // Internal nodes: at most one of 128^3 voxels per grid over the box (vec3s: twice a float's).
     using Node128 = openvdb::FloatTree::RootNodeType::ChildNodeType::ChildNodeType;
-    const double nodes = b2.rest + b2.grids * 2.0 * sizeof(Node128) * std::pow(x + 2.0, 3.0);
+    const double nodes = b2.rest + b2.grids * 2.0 * sizeof(Node128) *
+                                       std::pow(double(settings.resolution) / 128.0 + 2.0, 3.0);
     // A quarter more for the slabs' own nodes and the writer's buffers.
-    return uint64_t(1.25 * (b2.leaves * std::pow(x, p) + nodes));
+    return uint64_t(1.25 * (v * x * x * x + s * x * x + nodes));
 }
 
 void write_float_grids(const std::string& path, const std::vector<FloatGridSpec>& specs) {

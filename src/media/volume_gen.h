@@ -36,8 +36,8 @@ inline constexpr float kVelocityFps = 24.0f;
 void generate_volume(const VolumeGenSettings& settings, const std::string& path);
 
 /// About the most memory generate_volume takes for `settings` (0 when small, at most 128^3):
-/// the leaves of the grids made at 64^3 and 128^3 (a few tenths of a second), extrapolated as
-/// they grew (between a surface's r^2 and a volume's r^3), and a quarter more.
+/// the leaves of the grids made at two coarser resolutions (at most 256^3: a few seconds),
+/// extrapolated as a volume's and a surface's, and a quarter more.
 uint64_t volume_memory_estimate(const VolumeGenSettings& settings);
 
 /// A float grid "name" whose voxel (i,j,k) for 0 <= i < nx, ... holds value(i,j,k) (zero values
