@@ -12,6 +12,7 @@
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/Count.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -40,11 +41,13 @@ void init_openvdb() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-/// Calls leaf_fn(Leaf&) for every leaf node and tile_fn(float& value, CoordBBox) for every tile
-/// (active or inactive) at every internal level; tile values written by tile_fn are stored back.
-/// Tree-level value iterators would also visit each leaf voxel, so the levels are walked here.
+/// Calls tile_fn(float& value, CoordBBox) for every tile (active or inactive) at every internal
+/// level, one at a time, and stores back the values it writes; then leaf_fn(Leaf&) for every leaf
+/// node on the run's threads (at once for different leaves). Tree-level value iterators would
+/// also visit each leaf voxel, so the levels are walked here.
 template <typename LeafFn, typename TileFn>
 void visit_nodes(FloatTree& tree, LeafFn&& leaf_fn, TileFn&& tile_fn) {
+    std::vector<Leaf*> leaves;
     auto visit_tile = [&](auto& it, int dim) {
         float v = *it;
         const float before = v;
@@ -57,9 +60,13 @@ void visit_nodes(FloatTree& tree, LeafFn&& leaf_fn, TileFn&& tile_fn) {
         for (auto it = c1->beginValueAll(); it; ++it) visit_tile(it, Internal2::DIM);
         for (auto c2 = c1->beginChildOn(); c2; ++c2) {
             for (auto it = c2->beginValueAll(); it; ++it) visit_tile(it, Leaf::DIM);
-            for (auto leaf = c2->beginChildOn(); leaf; ++leaf) leaf_fn(*leaf);
+            for (auto leaf = c2->beginChildOn(); leaf; ++leaf) leaves.push_back(&*leaf);
         }
     }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size()),
+                      [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t n = r.begin(); n != r.end(); ++n) leaf_fn(*leaves[n]);
+                      });
 }
 
 /// The load-time rule for bad voxel values (docs/design.md, Density between voxels): NaN, ±Inf,
@@ -166,6 +173,7 @@ void fill_brick(ConstAccessor& acc, const Coord& o, Brick* brick) {
         const int dx = d & 1, dy = (d >> 1) & 1, dz = d >> 2;
         const Coord node = o.offsetBy(kCell * dx, kCell * dy, kCell * dz);
         const Leaf* leaf = acc.probeConstLeaf(node);
+        const float* data = leaf ? leaf->buffer().data() : nullptr;
         const float tile = leaf ? 0.0f : acc.getValue(node);
         // A neighbour supplies only its local coordinate 0 along the axes it is +1 on.
         for (int x = 0; x < (dx ? 1 : kCell); ++x)
@@ -173,7 +181,7 @@ void fill_brick(ConstAccessor& acc, const Coord& o, Brick* brick) {
                 for (int z = 0; z < (dz ? 1 : kCell); ++z) {
                     const int b =
                         ((kCell * dx + x) * kEdge + kCell * dy + y) * kEdge + kCell * dz + z;
-                    (*brick)[b] = leaf ? leaf->getValue((x << 6) | (y << 3) | z) : tile;
+                    (*brick)[b] = data ? data[(x << 6) | (y << 3) | z] : tile;
                 }
     }
 }
@@ -212,8 +220,9 @@ void quantize(const Brick& brick, detail::BrickCell* cell, uint16_t* out) {
     cell->step = step;
     const double per_step = step > 0.0f ? 1.0 / double(step) : 0.0;
     for (int n = 0; n < detail::kBrickValues; ++n) {
-        const double q = std::round((double(brick[n]) - double(*lo)) * per_step);
-        out[n] = static_cast<uint16_t>(std::clamp(q, 0.0, double(kSteps)));
+        // Nearest step: a conversion that truncates, not std::round (a library call).
+        const double q = (double(brick[n]) - double(*lo)) * per_step + 0.5;
+        out[n] = static_cast<uint16_t>(std::min(int64_t(q), int64_t(kSteps)));
     }
 }
 
@@ -641,11 +650,17 @@ std::unique_ptr<DensityGrid> GridBuilder::build(FloatTree& tree, const DMat4& in
 
     SanitizeStats& stats = out->sanitize_;
     float max_density = 0.0f;
+    struct Found {  // a thread's counts and greatest value: sums and a max, the same in any order
+        SanitizeStats stats;
+        float max_density = 0.0f;
+    };
+    tbb::enumerable_thread_specific<Found> found;
     auto leaf_fn = [&](Leaf& leaf) {
+        Found& f = found.local();
         float* data = leaf.buffer().data();
         for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
-            sanitize_value(data[n], 1, &stats);
-            max_density = std::max(max_density, data[n]);
+            sanitize_value(data[n], 1, &f.stats);
+            f.max_density = std::max(f.max_density, data[n]);
         }
     };
     auto tile_fn = [&](float& v, const CoordBBox& box) {
@@ -653,6 +668,13 @@ std::unique_ptr<DensityGrid> GridBuilder::build(FloatTree& tree, const DMat4& in
         max_density = std::max(max_density, v);
     };
     visit_nodes(tree, leaf_fn, tile_fn);
+    for (const Found& f : found) {
+        stats.nan += f.stats.nan;
+        stats.inf += f.stats.inf;
+        stats.negative += f.stats.negative;
+        stats.denormal += f.stats.denormal;
+        max_density = std::max(max_density, f.max_density);
+    }
     if (stats.total() > 0) {
         char text[400];
         std::snprintf(text, sizeof text,
