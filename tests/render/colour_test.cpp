@@ -3,7 +3,7 @@
 // sigma_a + sigma_s·(1 − Cd) — every integrator (the path tracer, paths ending in the volume map,
 // the photon gather; the photon pass with them) renders the same image; and a colour grid of its
 // own voxel size and offset colours the scattering by world position (red on one side, blue on
-// the other).
+// the other); a uniform colour scales single scattering in a block by its closed form.
 
 #include "core/error.h"
 #include "render/pipeline.h"
@@ -102,6 +102,54 @@ TEST(ColourGrid, RendersAsTheDensityMadeChromaticByItsCoefficients) {
         EXPECT_LE(diff, 1e-5 * sum) << c.integrator << " depth " << c.gather_depth;
         // The colour shows: the scattered light's blue falls short of its red.
         EXPECT_LT(channel[2], 0.95 * channel[0]) << c.integrator;
+    }
+}
+
+TEST(ColourGrid, AUniformColourScalesSingleScatteringByItsClosedForm) {
+    // A block of uniform density (16^3 voxels 0.1 apart) and a uniform colour C, the sun straight
+    // down and the camera below looking up (fov 2 degrees, 40 units away: its rays all but
+    // vertical), single scattering alone (max_depth 1), isotropic phase. Along a vertical line
+    // the sun's and the view's transmittances multiply to the whole line's, so whatever the
+    // density's profile L = C sigma_s / sigma_t * E / (4 pi) * tau e^-tau, tau = sigma_t * 1.6
+    // (a block of n voxels has optical depth sigma_t n h through its voxel centres): per channel
+    // C times the grey medium's.
+    openvdb::initialize();
+    const TempDir dir("colour_closed");
+    const std::string file = (dir.path() / "uniform.vdb").string();
+    auto density = openvdb::FloatGrid::create(0.0f);
+    density->fill(openvdb::CoordBBox(openvdb::Coord(-8), openvdb::Coord(7)), 1.0f, true);
+    density->setName("density");
+    density->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
+    const openvdb::Vec3s c(0.9f, 0.5f, 0.2f);
+    openvdb::io::File(file).write({density, colour_grid(c, c)});
+    const float sigma_s = 1.2f, sigma_a = 0.4f, E = 3.0f;
+    SceneDesc d;
+    d.camera.position = Vec3(0.0f, -40.0f, 0.0f);
+    d.camera.look_at = Vec3(0.0f);
+    d.camera.up = Vec3(0.0f, 0.0f, 1.0f);
+    d.camera.fov_deg = 2.0f;
+    d.camera.width = d.camera.height = 8;
+    d.lights.push_back(sun(Vec3(0.0f, -1.0f, 0.0f), E));
+    d.media.push_back(vdb_medium(file, Color(sigma_s), Color(sigma_a)));
+    d.media[0].g = 0.0f;
+    d.media[0].color_grid = "Cd";
+    d.render.integrator = Integrator::Path;
+    d.render.max_depth = 1;
+    d.render.spp = 2048;
+    const Image img = run_pipeline(d, true).film.beauty;
+    const double sigma_t = sigma_s + sigma_a, tau = sigma_t * 16 * 0.1;
+    const double grey = sigma_s / sigma_t * E / (4.0 * kPi) * tau * std::exp(-tau);
+    for (int ch = 0; ch < 3; ++ch) {
+        double sum = 0.0, sum2 = 0.0;
+        const int n = img.width * img.height;
+        for (int y = 0; y < img.height; ++y)
+            for (int x = 0; x < img.width; ++x) {
+                const double v = img.at(x, y)[ch];
+                sum += v;
+                sum2 += v * v;
+            }
+        const double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+        EXPECT_NEAR(mean, c[ch] * grey, 4.0 * se + 1e-3 * grey) << "channel " << ch;
     }
 }
 
