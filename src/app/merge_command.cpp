@@ -130,10 +130,10 @@ int run_merge(const MergeArgs& a) {
         merge.add(std::move(part.sums));
     }
     PipelineResult result = merge.finish(setup, /*speak=*/true);
-    const Report& report = result.report;
     add_phase(&result.report, "merge", timer.seconds());
     write_image(&result, a.output, png, a.exposure, a.reference.empty() ? nullptr : &reference,
                 a.reference);
+    const Report& report = result.report;
     if (a.json)
         std::cout << report_json(report).dump(2) << "\n";
     else

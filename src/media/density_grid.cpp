@@ -378,18 +378,31 @@ uint64_t max_leaves(uint64_t tree_bytes) {
     return uint64_t(double(tree_bytes) / kLeafValueBytes) + 1;
 }
 
-/// Before grid `grid_name` is read (the probe's child reads it too): the memory its tree and
-/// sampler will take, from the metadata OpenVDB writes with each grid (file_mem_bytes, the
+/// A grid's memory from its metadata (grid_metadata): its tree, and its sampler's for its active
+/// box. Not known when the metadata is missing or unreadable; *active its box when known.
+GridMemory metadata_memory(const std::string& path, const std::string& grid_name,
+                           CoordBBox* active) {
+    GridMemory m;
+    if (!grid_metadata(path, grid_name, &m.tree, active)) return m;
+    m.known = true;
+    const SamplerSize size = sampler_size(*active, max_leaves(m.tree));
+    m.sampler = uint64_t(size.bytes);
+    m.cells = uint64_t(size.cells);
+    return m;
+}
+
+/// Before grid `grid_name` is read (in this process or the reader child): the memory its tree
+/// and sampler will take, from the metadata OpenVDB writes with each grid (file_mem_bytes, the
 /// tree's in-memory size; file_bbox_min and file_bbox_max, its active box), checked as
 /// check_sampler_size does, so that a grid too big for the machine is refused with its sizes
-/// instead of the kernel's ending the process. A file without that metadata (or whose metadata
-/// cannot be read: the probe reports why) is checked once read.
-void check_before_reading(const std::string& path, const std::string& field,
-                          const std::string& grid_name) {
-    uint64_t tree = 0;
+/// instead of the kernel's ending the process; returned for what else needs it. A file without
+/// that metadata (or whose metadata cannot be read: the reader says why) is checked once read.
+GridMemory check_before_reading(const std::string& path, const std::string& field,
+                                const std::string& grid_name) {
     CoordBBox active;
-    if (!grid_metadata(path, grid_name, &tree, &active)) return;
-    check_sampler_size(path, field, grid_name, active, max_leaves(tree), tree);
+    const GridMemory m = metadata_memory(path, grid_name, &active);
+    if (m.known) check_sampler_size(path, field, grid_name, active, max_leaves(m.tree), m.tree);
+    return m;
 }
 
 }  // namespace
@@ -398,14 +411,8 @@ DensityGrid::~DensityGrid() = default;
 
 GridMemory grid_memory(const std::string& path, const std::string& grid_name) {
     init_openvdb();
-    GridMemory m;
     CoordBBox active;
-    if (!grid_metadata(path, grid_name, &m.tree, &active)) return m;
-    m.known = true;
-    const SamplerSize size = sampler_size(active, max_leaves(m.tree));
-    m.sampler = uint64_t(size.bytes);
-    m.cells = uint64_t(size.cells);
-    return m;
+    return metadata_memory(path, grid_name, &active);
 }
 
 std::vector<std::string> vdb_grid_names(const std::string& path, const std::string& field) {
@@ -425,8 +432,9 @@ std::vector<std::string> vdb_grid_names(const std::string& path, const std::stri
 
 namespace {
 
-/// Reads grid `grid_name` of `path` (checked, probed), its affine index-to-world in *to_world,
-/// after checking its transform and its voxel count against the file's metadata.
+/// Reads grid `grid_name` of `path` in this process (the file and its memory checked first), its
+/// affine index-to-world in *to_world, after checking its transform and its voxel count against
+/// the file's metadata.
 openvdb::GridBase::Ptr read_grid(const std::string& path, const std::string& grid_name,
                                  const std::string& field, DMat4* to_world) {
     init_openvdb();
@@ -867,12 +875,13 @@ GridInfo receive_info(FdReader& in) {
     return g;
 }
 
-/// What the child needs to build `grids` samplers from grid `grid_name` (or its .x, .y and .z
-/// float grids) besides reading the file: the trees it splits them into, and the samplers' memory
-/// and time (10 microseconds a cell, 20 MB a second of bricks: several times what they take
-/// here), from the file's metadata; without it, 16 bytes and a microsecond per file byte.
-ChildNeeds child_needs(const std::string& path, const std::string& grid_name, int grids) {
-    GridMemory m = grid_memory(path, grid_name);
+/// What the child needs to build `grids` samplers from grid `grid_name` (memory `m`, from its
+/// metadata; or its .x, .y and .z float grids') besides reading the file: the trees it splits
+/// them into, and the samplers' memory and time (10 microseconds a cell, 20 MB a second of
+/// bricks: several times what they take here); without metadata, 16 bytes and a microsecond per
+/// file byte.
+ChildNeeds child_needs(const std::string& path, const std::string& grid_name, GridMemory m,
+                       int grids) {
     if (!m.known) {
         m = grid_memory(path, grid_name + ".x");
         m.tree *= 3;
@@ -899,11 +908,12 @@ std::vector<std::unique_ptr<DensityGrid>> load_in_child(const std::string& what,
                                                         uint64_t* clamped) {
     init_openvdb();
     check_vdb_file(path, field);
-    check_before_reading(path, field, grid_name);
+    const GridMemory memory = check_before_reading(path, field, grid_name);
     std::vector<std::unique_ptr<DensityGrid>> grids;
     const std::vector<std::string> args = {
         "--what", what, "--grid", grid_name, "--threads", std::to_string(active_thread_count())};
-    read_in_child(path, field, args, child_needs(path, grid_name, int(count)), [&](FdReader& in) {
+    const ChildNeeds needs = child_needs(path, grid_name, memory, int(count));
+    read_in_child(path, field, args, needs, [&](FdReader& in) {
         const uint64_t clamped_values = in.value<uint64_t>();
         if (clamped) *clamped = clamped_values;
         for (size_t n = 0; n < count; ++n) grids.push_back(GridBuilder::receive(in));

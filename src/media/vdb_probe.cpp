@@ -34,9 +34,9 @@ namespace fogmap {
 namespace {
 
 // Child address-space limit: 2 GiB for the process itself (libraries, thread stacks, malloc
-// arenas) plus 64 bytes per file byte for the grids. A float leaf (2 KB in memory) costs at least
-// ~130 bytes in the file (value masks, chunk header), so real files stay below ~20x; a small
-// crafted file asking for 4 GB gets std::bad_alloc instead.
+// arenas) plus 64 bytes per file byte for the grids, and ChildNeeds (what it builds of them). A
+// float leaf (2 KB in memory) costs at least ~130 bytes in the file (value masks, chunk header),
+// so real files stay below ~20x; a small crafted file asking for 4 GB gets std::bad_alloc instead.
 constexpr uint64_t kBaseBytes = uint64_t(2) << 30;
 constexpr uint64_t kBytesPerFileByte = 64;
 // CPU-time limit, never wall time (a valid file must pass however busy the machine): 10 s plus
@@ -59,8 +59,8 @@ ProbeState& probe_state() {
 
 uint64_t file_bytes(const std::string& path);
 
-/// The child's CPU seconds for a file of `bytes`. FOGMAP_PROBE_CPU_SECONDS replaces the 10-s
-/// base (tests of the limit itself; read by parent and child alike).
+/// The child's CPU seconds for reading a file of `bytes` (the parent adds what the child builds
+/// and passes the sum). FOGMAP_PROBE_CPU_SECONDS replaces the 10-s base (tests of the limit).
 rlim_t cpu_limit_s(uint64_t bytes) {
     double base = kBaseCpu_s;
     if (const char* env = std::getenv("FOGMAP_PROBE_CPU_SECONDS")) {

@@ -62,16 +62,22 @@ const GridInfo* colour_grid(const std::vector<GridInfo>& grids) {
     return nullptr;
 }
 
+/// Houdini's and Blender's names of a velocity (any case).
+bool velocity_name(const std::string& name) {
+    const std::string n = lower(name);
+    return n == "vel" || n == "velocity" || n == "v";
+}
+
 /// The velocity_grid a medium would name: a vec3s vel, velocity or v, else the base name of
 /// float grids NAME.x, NAME.y and NAME.z (a split vector volume); "" for none.
 std::string velocity_grid(const std::vector<GridInfo>& grids) {
     for (const GridInfo& g : grids)
-        if (g.value_type == "vec3s" && named(g, {"vel", "velocity", "v"})) return g.name;
+        if (g.value_type == "vec3s" && velocity_name(g.name)) return g.name;
     for (const GridInfo& g : grids) {
         const size_t dot = g.name.rfind('.');
         if (!is_float(g) || dot == std::string::npos || g.name.substr(dot) != ".x") continue;
         const std::string base = g.name.substr(0, dot);
-        if (lower(base) != "vel" && lower(base) != "velocity" && lower(base) != "v") continue;
+        if (!velocity_name(base)) continue;
         int found = 0;
         for (const GridInfo& h : grids)
             found += is_float(h) && (h.name == base + ".y" || h.name == base + ".z") ? 1 : 0;
@@ -198,7 +204,7 @@ std::vector<std::string> grid_uses(const std::vector<GridInfo>& grids) {
         else if (!velocity.empty() && (g.name == velocity || g.name == velocity + ".x" ||
                                        g.name == velocity + ".y" || g.name == velocity + ".z"))
             uses.push_back("velocity (motion blur over camera.shutter)");
-        else if (base == "vel" || base == "velocity" || base == "v")
+        else if (velocity_name(base))
             uses.push_back(
                 "not used: a velocity is read from a vec3s grid or from float grids "
                 "NAME.x, NAME.y and NAME.z");
