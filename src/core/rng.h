@@ -45,10 +45,13 @@ inline constexpr uint64_t kSlab = 0x534C4142ull;
 inline constexpr uint64_t kBenchReference = 0x5eed5eedull;
 /// "SHUTTER": the times of camera samples and photons within a shutter (motion blur).
 inline constexpr uint64_t kShutter = 0x53485554544552ull;
+/// "ADAPT": the dither that rounds adaptive sampling's per-pixel counts (render/adaptive.cpp).
+inline constexpr uint64_t kAdaptive = 0x4144415054ull;
 
 inline constexpr uint64_t kAll[] = {kPixelRows,     kPhotonBounce, kPhotonLight,    kPhotonEmission,
                                     kEmissionPower, kNoise,        kMapSamples,     kPilot,
-                                    kPixelEstimate, kSlab,         kBenchReference, kShutter};
+                                    kPixelEstimate, kSlab,         kBenchReference, kShutter,
+                                    kAdaptive};
 
 /// Whether no two keys of kAll are equal.
 constexpr bool all_distinct() {

@@ -19,23 +19,42 @@ constexpr double kZ95 = 1.959964;  ///< two-sided 95% quantile of the normal dis
 /// docs/error-estimate.md).
 constexpr int kNeighbours = 2;
 
-/// The batches of `film` that hold samples.
-std::vector<int> active_batches(const Film& film) {
+/// Each batch's share of the image's samples: batch_share, or under adaptive sampling (a share
+/// per pixel) the pixels' together.
+std::array<double, kBatches> image_shares(const Film& film) {
+    if (film.pixel_spp.empty()) return film.batch_share;
+    std::array<double, kBatches> sum{};
+    double all = 0.0;
+    for (int n : film.pixel_spp) {
+        const std::array<int, kBatches> counts = batch_counts(0, n, film.unit);
+        for (size_t b = 0; b < size_t(kBatches); ++b) sum[b] += counts[b];
+        all += n;
+    }
+    for (double& s : sum) s = all > 0.0 ? s / all : 0.0;
+    return sum;
+}
+
+/// The batches of `film` that hold samples (in some pixel).
+std::vector<int> active_batches(const std::array<double, kBatches>& shares) {
     std::vector<int> active;
     for (int b = 0; b < kBatches; ++b)
-        if (film.batch_share[size_t(b)] > 0.0) active.push_back(b);
+        if (shares[size_t(b)] > 0.0) active.push_back(b);
     return active;
 }
 
-/// The mean of every other of `film`'s `active` batches from `parity` on, by their shares.
+/// The mean of every other of `film`'s `active` batches from `parity` on, by their shares (each
+/// pixel's own).
 Image half_mean(const Film& film, const std::vector<int>& active, size_t parity) {
     Image out(film.beauty.width, film.beauty.height);
-    double weight = 0.0;
-    for (size_t i = parity; i < active.size(); i += 2) weight += film.batch_share[active[i]];
-    for (size_t i = parity; i < active.size(); i += 2) {
-        const float w = float(film.batch_share[active[i]] / weight);
-        const Image& batch = film.batches[active[i]];
-        for (size_t p = 0; p < out.pixels.size(); ++p) out.pixels[p] += w * batch.pixels[p];
+    for (size_t p = 0; p < out.pixels.size(); ++p) {
+        const std::array<double, kBatches> share = film.shares(p);
+        double weight = 0.0;
+        for (size_t i = parity; i < active.size(); i += 2) weight += share[size_t(active[i])];
+        if (!(weight > 0.0)) continue;
+        for (size_t i = parity; i < active.size(); i += 2) {
+            const float w = float(share[size_t(active[i])] / weight);
+            out.pixels[p] += w * film.batches[size_t(active[i])].pixels[p];
+        }
     }
     return out;
 }
@@ -93,20 +112,25 @@ struct Weights {
     }
 };
 
-/// The variance of the mean of value (p, c) of `film` from its `active` batches; adds to each of
-/// `draws` its batch's scaled squared deviation, whose expectation is that variance (one draw of
-/// the squared error of an image), times `weight`.
-double pixel_variance(const Film& film, const std::vector<int>& active, size_t p, int c,
-                      double weight, double* draws) {
+/// The variance of the mean of value (p, c) of `film` from its `active` batches that hold the
+/// pixel's samples (`share`: the pixel's); adds to each of `draws` its batch's scaled squared
+/// deviation, whose expectation is that variance (one draw of the squared error of an image),
+/// times `weight`.
+double pixel_variance(const Film& film, const std::vector<int>& active,
+                      const std::array<double, kBatches>& share, size_t p, int c, double weight,
+                      double* draws) {
     double v = 0.0;
+    int held = 0;
     const double x = film.beauty.pixels[p][c];
     for (size_t i = 0; i < active.size(); ++i) {
-        const double share = film.batch_share[size_t(active[i])];
+        const double s = share[size_t(active[i])];
+        if (!(s > 0.0)) continue;
         const double d = double(film.batches[size_t(active[i])].pixels[p][c]) - x;
-        v += share * d * d;
-        draws[i] += d * d * share / (1.0 - share) * weight;
+        v += s * d * d;
+        draws[i] += d * d * s / (1.0 - s) * weight;
+        ++held;
     }
-    return v / double(active.size() - 1);
+    return held > 1 ? v / double(held - 1) : 0.0;
 }
 
 double sample_variance(const double* g, size_t n) {
@@ -202,9 +226,10 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
         for (int px = 0; px < x.width; ++px) {
             const size_t p = size_t(py) * x.width + px, b = size_t(py / kBlock) * bx + px / kBlock;
             double* const block = &draws[b * k];
+            const std::array<double, kBatches> share = film.shares(p);
             for (int c = 0; c < 3; ++c) {
                 const double w = weight(p, c), m = map_part ? film.map_variance.pixels[p][c] : 0.0;
-                const double v = pixel_variance(film, active, p, c, w, block) + m;
+                const double v = pixel_variance(film, active, share, p, c, w, block) + m;
                 e->variance.pixels[p][c] = float(std::max(v, 0.0));
                 parts[p] += v * w;
                 gauss[b] += 2.0 * (v * w) * (v * w);
@@ -215,7 +240,8 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     // The estimate is sum_i a_i G_i over the batches' draws G: its variance is var(G) sum a_i²;
     // this image's error is one more draw.
     double a2 = 0.0, var = 0.0;
-    for (int i : active) a2 += std::pow((1.0 - film.batch_share[size_t(i)]) / double(k - 1), 2);
+    const std::array<double, kBatches> shares = image_shares(film);
+    for (int i : active) a2 += std::pow((1.0 - shares[size_t(i)]) / double(k - 1), 2);
     for (size_t t = 0; t < draws.size(); t += k) {
         const BlockPart& m = maps[t / k];
         var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]) + m.normal() +
@@ -239,7 +265,7 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
 
 ErrorEstimate estimate_error(const Film& film) {
     ErrorEstimate e;
-    const std::vector<int> active = active_batches(film);
+    const std::vector<int> active = active_batches(image_shares(film));
     e.batches = int(active.size());
     if (active.size() < 2 || film.beauty.pixels.empty()) return e;
     e.valid = true;

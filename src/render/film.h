@@ -82,15 +82,16 @@ struct PixelSample {
     float time = 0.0f;  ///< seconds from the frame within the camera's shutter (0: none)
 };
 
-/// The time of sample s of a pixel's spp within `shutter`: the pixel's samples stratified over
-/// the shutter (one per spp-th, in an order shuffled per pixel), each uniform in its stratum, from
-/// a stream of their own (the samples' Rng untouched).
-inline float shutter_time(const ShutterDesc& shutter, int s, int spp, uint64_t seed,
+/// The time of sample s of a pixel within `shutter`: the `count` samples of its pass (s's index
+/// among them `index`) stratified over the shutter (one per count-th, in an order shuffled per
+/// pixel), each uniform in its stratum, from a stream of their own (the samples' Rng untouched).
+inline float shutter_time(const ShutterDesc& shutter, int s, int index, int count, uint64_t seed,
                           uint64_t pixel) {
     const uint64_t key = derive_seed(seed, stream::kShutter, pixel);
-    const uint32_t stratum = permute(static_cast<uint32_t>(s), static_cast<uint32_t>(spp), key);
+    const uint32_t stratum =
+        permute(static_cast<uint32_t>(index), static_cast<uint32_t>(count), key);
     const float u = Rng(key, static_cast<uint64_t>(s)).uniform();
-    return shutter.seconds(std::min((float(stratum) + u) / float(spp), 1.0f));
+    return shutter.seconds(std::min((float(stratum) + u) / float(count), 1.0f));
 }
 
 struct RenderStats {
@@ -123,6 +124,11 @@ struct Film {
     /// bias (BiasHalves); kept and emptied as map_variance is.
     std::vector<Image> bias_halves;
     Image variance, samples;  ///< written as EXR layers when set
+    /// Adaptive sampling (render/adaptive.h): each pixel's samples, batched by whole `unit`s as
+    /// render_film batches them, so that its batches' shares differ from pixel to pixel (and
+    /// batch_share holds the image's); empty when every pixel has the same.
+    std::vector<int> pixel_spp;
+    int unit = 1;
 
     Film() = default;
     Film(int width, int height, bool layered)
@@ -130,6 +136,8 @@ struct Film {
           layers(layered ? kLayerCount : 0, Image(width, height)),
           batches(kBatches, Image(width, height)) {}
     bool layered() const { return !layers.empty(); }
+    /// Pixel p's batch shares: batch_share, or its own under adaptive sampling.
+    std::array<double, kBatches> shares(size_t p) const;
     const Image& layer(Layer l) const {
         FOGMAP_ASSERT(layered(), "an unlayered film has no layers");
         return layers[static_cast<int>(l)];
@@ -223,17 +231,34 @@ private:
     }
 };
 
-/// For a pixel's `spp` samples in batches of whole `unit`s (render_film): sets film->batch_share
-/// and returns 1 / (samples in the batch) per batch (0 for an empty one).
-inline std::array<float, kBatches> batch_weights(int spp, int unit, Film* film) {
-    std::array<int, kBatches> in_batch{};
-    for (int s = 0; s < spp; ++s) ++in_batch[size_t((s / unit) % kBatches)];
+/// How many of samples [s0, s1) of a pixel fall in each batch, batched by whole `unit`s: sample s
+/// in batch (s / unit) mod kBatches.
+inline std::array<int, kBatches> batch_counts(int s0, int s1, int unit) {
+    // Samples [0, m) hold m / (kBatches unit) whole rounds of every batch, then the rest in order.
+    const auto upto = [unit](int m, int b) {
+        const int round = kBatches * unit;
+        return m / round * unit + std::clamp(m % round - b * unit, 0, unit);
+    };
+    std::array<int, kBatches> n{};
+    for (int b = 0; b < kBatches; ++b) n[size_t(b)] = upto(s1, b) - upto(s0, b);
+    return n;
+}
+
+/// 1 / count per batch of `counts` (0 for an empty one).
+inline std::array<float, kBatches> batch_inverse(const std::array<int, kBatches>& counts) {
     std::array<float, kBatches> inv{};
-    for (size_t b = 0; b < size_t(kBatches); ++b) {
-        inv[b] = in_batch[b] > 0 ? 1.0f / float(in_batch[b]) : 0.0f;
-        film->batch_share[b] = double(in_batch[b]) / spp;
-    }
+    for (size_t b = 0; b < size_t(kBatches); ++b)
+        inv[b] = counts[b] > 0 ? 1.0f / float(counts[b]) : 0.0f;
     return inv;
+}
+
+inline std::array<double, kBatches> Film::shares(size_t p) const {
+    if (pixel_spp.empty()) return batch_share;
+    const int n = pixel_spp[p];
+    const std::array<int, kBatches> counts = batch_counts(0, n, unit);
+    std::array<double, kBatches> out{};
+    for (size_t b = 0; b < size_t(kBatches); ++b) out[b] = n > 0 ? double(counts[b]) / n : 0.0;
+    return out;
 }
 
 /// A pixel's samples' photon_delta summed per photon batch t and sample batch b, and from them
@@ -283,46 +308,118 @@ struct BiasHalves {
     }
 };
 
-/// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
-/// tiles (the others stay 0), spp samples
-/// at N-rooks positions, sample s drawing from Rng(seed, pixel, s) first its two position
-/// uniforms, then trace(ray, rng, state, PixelSample) -> FilmSample; non-finite samples are dropped
-/// (counted) and the film holds the mean over spp, and the mean over each batch's samples (a
-/// dropped sample counts as 0 in both). state = make_state() per tile; state.rays,
-/// state.capped, state.lookups, state.gathered and the steps of state.media are summed into
-/// *stats (may be null). `photon_parts`: what the samples' photon_delta and bias_half give
-/// (film.map_variance, film.bias_halves).
-/// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
-/// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
-/// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
-template <class MakeState, class Trace>
-Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
-                 PhotonParts photon_parts, int unit, bool quiet, RenderStats* stats,
-                 MakeState&& make_state, Trace&& trace) {
+/// The samples one pass of render_film takes in a pixel: [s0, s1), their positions (and shutter
+/// times) stratified among them, of the pixel's `total` (PixelSample::spp).
+struct PixelRange {
+    int s0 = 0, s1 = 0, total = 0;
+};
+
+/// What the first pass of adaptive sampling measures per pixel beside its film: the beauty's sum
+/// of squares over the pass's finite samples, and its work per sample (rays and medium steps).
+struct PassMeasure {
+    std::vector<Color> squares;
+    std::vector<float> work;
+};
+
+/// Adaptive sampling (render.adaptive; render/adaptive.cpp, docs/design.md): the samples a first
+/// pass takes in every pixel at a render of `spp` in batches of whole `unit`s (at least two
+/// units, so that every pixel's estimate has two batches; spp when it leaves nothing to allocate).
+int first_pass_spp(int spp, int unit);
+/// Every pixel's samples (0 outside `share`'s tiles): the first pass's n1, and where the first
+/// pass's neighbours of a pixel (5 x 5 within its tile, not the pixel itself: its count must not
+/// depend on its own samples) show relative variance σ²/(y² + 0.01) and work per sample c, more
+/// in whole units: the work the rest of a uniform render would take, spread in proportion to
+/// σ / (sqrt(y² + 0.01) sqrt(c)), which minimises the relMSE at that work; at most kAdaptiveMax
+/// times spp. The image's sums are added tile by tile in tile order (over share.ranks' tiles too)
+/// and units rounded by a dither of (seed, pixel): the counts are the same at any thread or rank
+/// count.
+std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure, int spp, int n1,
+                                  int unit, uint64_t seed, TileShare share);
+/// The most samples adaptive sampling gives a pixel, in multiples of render.spp.
+inline constexpr int kAdaptiveMax = 16;
+/// One pixel's means over one pass's samples (render_pass), and what its photon batches give.
+struct PixelMeans {
+    Color beauty{0.0f};
+    std::array<Color, kLayerCount> layers{};
+    std::array<Color, kBatches> batches{};
+    Color map_variance{0.0f};
+    std::array<Color, 4> halves{};  ///< Film::bias_halves' order
+};
+
+/// Pixel p of `film` holding samples [0, n1) and `later` those of [n1, n) as one of its n
+/// samples: means weighted by their samples, batch by batch and half by half; the map variance
+/// by samples where the later pass has two batches.
+void merge_pixel(Film* film, size_t p, const PixelMeans& later, int n1, int n, int unit);
+
+/// The counts render_film sums from its tiles' states.
+struct PassCounters {
+    std::atomic<uint64_t> samples{0}, rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0},
+        gathered{0};
+    void write(RenderStats* stats) const {
+        stats->samples = samples.load();
+        stats->rays = rays.load();
+        stats->nonfinite = nonfinite.load();
+        stats->capped = capped.load();
+        stats->steps = steps.load();
+        stats->lookups = lookups.load();
+        stats->gathered = gathered.load();
+    }
+};
+
+/// The cost of a render's counted events in medium steps: least-squares fits to the phase times
+/// of single-threaded runs of path, guided and photon on smoke.json, smoke1 and the Disney cloud
+/// over the ground at 16 and 64 spp (docs/measurements.md; 65 ns a render step), rounded: steps
+/// 1, Embree queries 0.93, lookups 2.2, gathered photons 1.1, within 8% of every run's time.
+inline constexpr double kRayWork = 1.0;       ///< an Embree query
+inline constexpr double kLookupWork = 2.0;    ///< a volume-map, guide or sun-grid lookup
+inline constexpr double kGatheredWork = 1.0;  ///< a photon a lookup gathered from a kd-tree
+
+/// A state's work so far, in medium steps (the cost model above).
+template <class State>
+double state_work(const State& state) {
+    uint64_t steps = 0;
+    for (const auto& m : state.media) steps += m.steps();
+    return double(steps) + kRayWork * double(state.rays) + kLookupWork * double(state.lookups) +
+           kGatheredWork * double(state.gathered);
+}
+
+/// One pass of render_film into `film` (of the image's shape, with the parts' images that
+/// `photon_parts` asks for): every pixel of `share`'s tiles takes the samples range(pixel index)
+/// (none: the pixel is left as it is), its means written, or with `merge` (adaptive sampling's
+/// second pass) merged into the range's first s0 samples that `film` holds; `measure` (may be
+/// null) gets the pass's PassMeasure.
+template <class MakeState, class Trace, class Range>
+void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonParts photon_parts,
+                 int unit, bool merge, bool quiet, PassCounters* counters, MakeState&& make_state,
+                 Trace&& trace, Range&& range, PassMeasure* measure, Film* film) {
     const int w = camera.width(), h = camera.height();
     const std::optional<ShutterDesc>& shutter = camera.shutter();
-    Film film(w, h, layered);
-    const bool photon_batches = photon_parts != PhotonParts::None,
+    const bool layered = film->layered(), photon_batches = photon_parts != PhotonParts::None,
                bias = photon_parts == PhotonParts::NoiseAndBias;
-    if (photon_batches) film.map_variance = Image(w, h);
-    if (bias) film.bias_halves.assign(4, Image(w, h));
-    std::atomic<uint64_t> rays{0}, nonfinite{0}, capped{0}, steps{0}, lookups{0}, gathered{0};
-    const float inv = 1.0f / static_cast<float>(spp);
-    const std::array<float, kBatches> batch_inv = batch_weights(spp, unit, &film);
-    const Timer timer;
+    if (measure) {
+        measure->squares.assign(size_t(w) * h, Color(0.0f));
+        measure->work.assign(size_t(w) * h, 0.0f);
+    }
     auto shade = [&](int x, int y, auto& state) {
+        const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+        const PixelRange r = range(size_t(pixel));
+        const int n = r.s1 - r.s0;
+        if (n <= 0) return;
+        const std::array<float, kBatches> batch_inv = batch_inverse(batch_counts(r.s0, r.s1, unit));
         FilmSample sum;
         std::array<Color, kBatches> batch{};
         PhotonBatchSums photons;
         BiasHalves halves;
+        Color squares(0.0f);
         uint64_t dropped = 0;
-        const uint64_t pixel = static_cast<uint64_t>(y) * w + x;
+        const double work = measure ? state_work(state) : 0.0;
         const uint64_t jitter_key = pixel_key(seed, pixel);
-        for (int s = 0; s < spp; ++s) {
+        for (int s = r.s0; s < r.s1; ++s) {
             Rng rng(seed, pixel, static_cast<uint64_t>(s));
-            const Vec2 j = pixel_jitter(s, spp, jitter_key, Vec2(rng.uniform(), rng.uniform()));
-            PixelSample ps{s, spp, jitter_key, x, y};
-            if (shutter) ps.time = shutter_time(*shutter, s, spp, seed, pixel);
+            const Vec2 j =
+                pixel_jitter(s - r.s0, n, jitter_key, Vec2(rng.uniform(), rng.uniform()));
+            PixelSample ps{s, r.total, jitter_key, x, y};
+            if (shutter) ps.time = shutter_time(*shutter, s, s - r.s0, n, seed, pixel);
             const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state, ps);
             const Color beauty = layered ? c.layer_sum() : c.beauty;
             if (!is_finite(beauty)) {
@@ -333,6 +430,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             for (int l = 0; layered && l < kLayerCount; ++l) sum.layers[l] += c.layers[l];
             const size_t b = size_t((s / unit) % kBatches);
             batch[b] += beauty;
+            if (measure) squares += beauty * beauty;
             // A non-finite part (an overflow) leaves the sample out of the map's parts only.
             const auto finite = [](const auto& colors) {
                 return std::all_of(colors.begin(), colors.end(),
@@ -341,33 +439,101 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
             if (photon_batches && finite(c.photon_delta)) photons.add(c.photon_delta, b);
             if (bias && finite(c.bias_half)) halves.add(c.bias_half, b);
         }
-        for (int b = 0; b < kBatches; ++b)
-            film.batches[size_t(b)].at(x, y) = batch[size_t(b)] * batch_inv[size_t(b)];
-        if (photon_batches) film.map_variance.at(x, y) = photons.variance(batch_inv);
-        for (size_t i = 0; bias && i < 4; ++i)
-            film.bias_halves[i].at(x, y) = halves.mean(i / 2, i % 2);
-        film.beauty.at(x, y) = (layered ? sum.layer_sum() : sum.beauty) * inv;
-        for (int l = 0; layered && l < kLayerCount; ++l)
-            film.layers[l].at(x, y) = sum.layers[l] * inv;
-        if (dropped) nonfinite += dropped;
+        const float inv = 1.0f / static_cast<float>(n);
+        PixelMeans m;
+        for (size_t b = 0; b < size_t(kBatches); ++b) m.batches[b] = batch[b] * batch_inv[b];
+        if (photon_batches) m.map_variance = photons.variance(batch_inv);
+        for (size_t i = 0; bias && i < 4; ++i) m.halves[i] = halves.mean(i / 2, i % 2);
+        m.beauty = (layered ? sum.layer_sum() : sum.beauty) * inv;
+        for (int l = 0; layered && l < kLayerCount; ++l) m.layers[size_t(l)] = sum.layers[l] * inv;
+        if (merge) {
+            merge_pixel(film, pixel, m, r.s0, r.s1, unit);
+        } else {
+            for (int b = 0; b < kBatches; ++b) film->batches[size_t(b)].at(x, y) = m.batches[b];
+            if (photon_batches) film->map_variance.at(x, y) = m.map_variance;
+            for (size_t i = 0; bias && i < 4; ++i) film->bias_halves[i].at(x, y) = m.halves[i];
+            film->beauty.at(x, y) = m.beauty;
+            for (int l = 0; layered && l < kLayerCount; ++l)
+                film->layers[size_t(l)].at(x, y) = m.layers[size_t(l)];
+        }
+        if (measure) {
+            measure->squares[pixel] = squares;
+            measure->work[pixel] = float((state_work(state) - work) / n);
+        }
+        counters->samples += uint64_t(n);
+        if (dropped) counters->nonfinite += dropped;
     };
     auto end_tile = [&](const auto& state) {
-        rays += state.rays;
-        capped += state.capped;
-        lookups += state.lookups;
-        gathered += state.gathered;
+        counters->rays += state.rays;
+        counters->capped += state.capped;
+        counters->lookups += state.lookups;
+        counters->gathered += state.gathered;
+        uint64_t steps = 0;
         for (const auto& m : state.media) steps += m.steps();
+        counters->steps += steps;
     };
-    const uint64_t pixels = render_tiles(w, h, share, quiet, make_state, shade, end_tile);
+    render_tiles(w, h, share, quiet, make_state, shade, end_tile);
+}
+
+/// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
+/// tiles (the others stay 0), spp samples at N-rooks positions, sample s drawing from
+/// Rng(seed, pixel, s) first its two position uniforms, then trace(ray, rng, state, PixelSample)
+/// -> FilmSample; non-finite samples are dropped (counted) and the film holds the mean over its
+/// samples, and the mean over each batch's samples (a dropped sample counts as 0 in both).
+/// state = make_state() per tile; state.rays, state.capped, state.lookups, state.gathered and the
+/// steps of state.media are summed into *stats (may be null). `photon_parts`: what the samples'
+/// photon_delta and bias_half give (film.map_variance, film.bias_halves).
+/// `unit` consecutive samples of a pixel make one unit of its estimate (an integrator that takes
+/// some term at every unit-th sample alone: photon_integrator.h, map_weight): sample s falls in
+/// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
+/// `adaptive`: spp sets the work (of spp samples in every pixel): a first pass of first_pass_spp
+/// samples in every pixel, then a second of allocate_samples' counts (film.pixel_spp).
+template <class MakeState, class Trace>
+Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
+                 PhotonParts photon_parts, int unit, bool adaptive, bool quiet, RenderStats* stats,
+                 MakeState&& make_state, Trace&& trace) {
+    const Timer timer;
+    PassCounters counters;
+    Film film(camera.width(), camera.height(), layered);
+    if (photon_parts != PhotonParts::None)
+        film.map_variance = Image(film.beauty.width, film.beauty.height);
+    if (photon_parts == PhotonParts::NoiseAndBias)
+        film.bias_halves.assign(4, Image(film.beauty.width, film.beauty.height));
+    const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {
+        render_pass(camera, seed, share, photon_parts, unit, merge, quiet, &counters, make_state,
+                    trace, range, measure, &film);
+    };
+    const int n1 = adaptive ? first_pass_spp(spp, unit) : spp;
+    const std::array<int, kBatches> counts = batch_counts(0, n1, unit);
+    for (size_t b = 0; b < size_t(kBatches); ++b) film.batch_share[b] = double(counts[b]) / n1;
+    if (n1 >= spp) {
+        pass(
+            false,
+            [&](size_t) {
+                return PixelRange{0, spp, spp};
+            },
+            nullptr);
+    } else {
+        PassMeasure measure;
+        pass(
+            false,
+            [&](size_t) {
+                return PixelRange{0, n1, n1};
+            },
+            &measure);
+        film.pixel_spp = allocate_samples(film, measure, spp, n1, unit, seed, share);
+        film.unit = unit;
+        const std::vector<int>& n = film.pixel_spp;
+        pass(
+            true,
+            [&](size_t p) {
+                return PixelRange{n1, n[p], n[p]};
+            },
+            nullptr);
+    }
     if (stats) {
+        counters.write(stats);
         stats->render_s = timer.seconds();
-        stats->samples = pixels * static_cast<uint64_t>(spp);
-        stats->rays = rays.load();
-        stats->nonfinite = nonfinite.load();
-        stats->capped = capped.load();
-        stats->steps = steps.load();
-        stats->lookups = lookups.load();
-        stats->gathered = gathered.load();
         stats->threads = active_thread_count();
     }
     return film;

@@ -516,7 +516,7 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
                                   : PhotonParts::None;
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, layered, parts,
-        strata_unit(settings.spp), quiet, stats,
+        strata_unit(settings.spp), settings.adaptive, quiet, stats,
         [&] {
             PathTracer::ThreadState ts = tracer.make_state();
             ts.layered = layered;
@@ -537,6 +537,7 @@ Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,
                             const AdjointGrid& grid, RenderStats* stats, TileShare tiles) {
     RenderSettings pre = settings;
     pre.spp = kPixelEstimateSpp;
+    pre.adaptive = false;
     pre.seed = mix64(settings.seed ^ stream::kPixelEstimate);  // not the render's samples
     const Image film =
         render_path(scene, pre, /*quiet=*/true, stats, PathPolicy::pixel_estimate(grid), tiles)

@@ -235,7 +235,7 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
         photon_batches ? PhotonParts::Noise : PhotonParts::None,
-        map_step(settings.spp, settings.map_spp), quiet, stats,
+        map_step(settings.spp, settings.map_spp), /*adaptive=*/false, quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             set_time(ts.media, ps.time);

@@ -18,15 +18,9 @@ namespace fogmap {
 
 namespace {
 
-// The cost of each counted event in medium steps: least-squares fits to the phase times of
-// single-threaded runs of the three candidates on smoke.json, smoke1 and the Disney cloud over
-// the ground at 16 and 64 spp (docs/measurements.md; 65 ns a render step), rounded.
-// Renders: steps 1, Embree queries 0.93, lookups 2.2, gathered photons 1.1, within 8% of every
-// run's time; photon passes with their kd-tree: steps 0.91, interactions 6.7, within 11%; tables
-// 0.8-2.2 per node.
-constexpr double kRayWork = 1.0;          // an Embree query
-constexpr double kLookupWork = 2.0;       // a volume-map, guide or sun-grid lookup
-constexpr double kGatheredWork = 1.0;     // a photon a lookup gathered from a kd-tree
+// The cost of each counted event in medium steps beside a render's (render/film.h, kRayWork),
+// from the same least-squares fits: photon passes with their kd-tree: steps 0.91, interactions
+// 6.7, within 11%; tables 0.8-2.2 per node.
 constexpr double kInteractionWork = 7.0;  // a photon path's interaction (Embree, deposit)
 constexpr double kNodeWork = 1.5;         // a node of a table built once per render
 
@@ -127,8 +121,9 @@ RunSetup candidate_run(const SceneDesc& desc, const Pilot& pilot, const PilotSca
     d.render.spp = pilot.spp;
     d.render.seed = pilot_seed(desc.render.seed, k);
     d.progressive.spp = pilot.spp;  // one iteration (iteration_size): the share's samples
+    d.render.adaptive = false;      // the variance per sample of a uniform render, extrapolated
     RunSetup run_setup = resolve_run(d);
-    run_setup.tiles = TileShare{0, pilot.tile_count};
+    run_setup.share_tiles(TileShare{0, pilot.tile_count});
     PhotonSettings& p = run_setup.photons;
     p.global = scale.scaled(desc.photons.global);
     p.caustic = scale.scaled(desc.photons.caustic);

@@ -43,7 +43,8 @@ std::vector<MapReport> map_reports(const PhotonMaps& maps) {
     return out;
 }
 
-/// The bits of every value of `film` (beauty, each layer, each batch), one integer each.
+/// The bits of every value of `film` (beauty, each layer, each batch, the map variance and bias
+/// halves, adaptive sampling's samples per pixel), one integer each.
 std::vector<int64_t> film_bits(const Film& film) {
     std::vector<int64_t> bits;
     auto put = [&](const Image& image) {
@@ -59,6 +60,7 @@ std::vector<int64_t> film_bits(const Film& film) {
     for (const Image& batch : film.batches) put(batch);
     put(film.map_variance);
     for (const Image& half : film.bias_halves) put(half);
+    bits.insert(bits.end(), film.pixel_spp.begin(), film.pixel_spp.end());
     return bits;
 }
 
@@ -77,6 +79,7 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     for (Image& batch : film->batches) get(batch);
     get(film->map_variance);
     for (Image& half : film->bias_halves) get(half);
+    for (int& n : film->pixel_spp) n = int(bits[at++]);
 }
 
 /// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
@@ -246,6 +249,8 @@ void RunEnd::estimate(Film* film, Report* report) const {
     film->variance = std::move(e.variance);
     film->samples = Image(report->width, report->height);
     std::fill(film->samples.pixels.begin(), film->samples.pixels.end(), Color(float(report->spp)));
+    for (size_t p = 0; p < film->pixel_spp.size(); ++p)  // adaptive sampling's own
+        film->samples.pixels[p] = Color(float(film->pixel_spp[p]));
     add_phase(report, "estimate", timer.seconds());
 }
 
@@ -749,8 +754,9 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
         setup = settle_pilot(desc, std::move(setup), *scene, &shared, &piloted);
         if (piloted) o.pilot_s = pilot.seconds();
     }
-    if (ranks && !setup.progressive) setup.tiles = TileShare{ranks->rank(), ranks->size()};
-    if (part && !setup.progressive) setup.tiles = *part;
+    if (ranks && !setup.progressive)
+        setup.share_tiles(TileShare{ranks->rank(), ranks->size(), ranks});
+    if (part && !setup.progressive) setup.share_tiles(*part);
     o.quiet = quiet;
     o.reference = reference;
     o.ranks = ranks;

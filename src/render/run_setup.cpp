@@ -3,6 +3,8 @@
 #include "core/hash.h"
 #include "core/world_range.h"
 #include "media/phase.h"
+#include "render/film.h"
+#include "render/path_tracer.h"
 #include "render/photon_integrator.h"
 #include "render/sun_shadows.h"
 #include "render/volume_map_end.h"
@@ -411,6 +413,19 @@ bool RunSetup::photon_batches() const {
             PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));
 }
 
+bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive) {
+    return desc.render.adaptive && method != Method::Gather && !progressive;
+}
+
+void RunSetup::share_tiles(TileShare share) {
+    tiles = share;
+    if (share.count > 1 && !share.ranks && run.render.adaptive) {
+        run.render.adaptive = false;
+        schedule.clear();
+        set_reason(reason);
+    }
+}
+
 void RunSetup::set_reason(std::string why) {
     reason = std::move(why);
     plan.integrator.reason = reason + (schedule.empty() ? "" : "; " + schedule);
@@ -479,6 +494,11 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
                       std::to_string(kTargetIterations) + " iterations to reach the target";
     }
     s.progressive = p.enabled();
+    d.render.adaptive = adaptive_sampling(d, s.method, s.progressive);
+    if (d.render.adaptive)
+        s.schedule = "adaptive sampling: a first pass of " +
+                     std::to_string(first_pass_spp(d.render.spp, strata_unit(d.render.spp))) +
+                     " spp, then the rest of render.spp's work where it shows the error";
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
     s.photons.volume_attempts = volume_attempts(d);
@@ -519,6 +539,7 @@ uint64_t resumable_fingerprint(const RunSetup& setup) {
     j["progressive"].erase("time_budget");
     j["progressive"].erase("target_relmse");
     j["render"].erase("threads");
+    j["render"].erase("adaptive");  // never on in iterations: checkpoints from before it resume
     return fnv1a(j.dump());
 }
 

@@ -35,7 +35,8 @@ const char* describe(Method m);
 struct RunSetup {
     /// The scene's keys as they run: render.integrator named (never auto), and the keys set by
     /// rule filled in — volume.gather_depth (auto's), volume.k, photons.volume, render.spp and
-    /// advanced.iteration_spp (an iteration's), progressive.iterations (the schedule's).
+    /// advanced.iteration_spp (an iteration's), progressive.iterations (the schedule's),
+    /// render.adaptive (adaptive_sampling's).
     SceneDesc run;
     Method method = Method::Path;
     std::string reason = "scene";  ///< why this method: "scene", or auto's rule and pilot
@@ -63,6 +64,9 @@ struct RunSetup {
     bool map_bias() const { return photon_batches() && method == Method::MapEnd; }
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
     void set_reason(std::string why);
+    /// This process renders `share` of the tiles: without ranks to share adaptive sampling's
+    /// image-wide sums with (auto's pilot, --part), every pixel takes render.spp.
+    void share_tiles(TileShare share);
 };
 
 /// Resolves `desc` (validated): auto's rules, then the schedule, the budgets and the keys set by
@@ -137,6 +141,11 @@ IterationSize iteration_size(const SceneDesc& desc);
 /// function weighs few of the gathered photons; otherwise volume.k (its default when not given).
 int volume_k(const SceneDesc& desc);
 
+/// Whether render.adaptive applies to `desc` run by `method`, `progressive` or not: camera paths
+/// traced as paths (the photon gather reads its maps at advanced.map_spp samples a pixel, however
+/// many it takes), in a plain render of one iteration (whose film holds each pixel's samples).
+bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive);
+
 /// resolve_run(desc).plan.
 Plan make_plan(const SceneDesc& desc);
 
@@ -145,8 +154,8 @@ Plan make_plan(const SceneDesc& desc);
 nlohmann::json settings_json(const RunSetup& setup);
 
 /// FNV-1a of what a resumed progressive run must share with its checkpoint: the resolved run
-/// without progressive.iterations, progressive.time_budget, progressive.target_relmse and
-/// render.threads.
+/// without progressive.iterations, progressive.time_budget, progressive.target_relmse,
+/// render.threads and render.adaptive.
 uint64_t resumable_fingerprint(const RunSetup& setup);
 
 }  // namespace fogmap

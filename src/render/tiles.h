@@ -17,6 +17,8 @@
 
 namespace fogmap {
 
+class Ranks;
+
 /// A bijection of [0, n) chosen by key (cycle-walking a bijective hash of the next power of two).
 inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
     if (n <= 1) return 0;
@@ -54,6 +56,9 @@ inline Vec2 pixel_jitter(int s, int spp, uint64_t key, Vec2 u) {
 /// a render (render/pipeline.h) get alike shares of a picture's busy and empty parts.
 struct TileShare {
     int index = 0, count = 1;
+    /// The processes rendering the other shares, where they exchange sums (MPI ranks: adaptive
+    /// sampling's image-wide sums); null alone, or where they cannot (auto's pilot, --part).
+    Ranks* ranks = nullptr;
 };
 
 inline constexpr int kTile = 16;  ///< tiles are kTile × kTile pixels

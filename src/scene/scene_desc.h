@@ -142,6 +142,9 @@ struct RenderSettings {
     int max_depth = 1000000;
     uint64_t seed = 1;  ///< results are a function of the seed alone
     int threads = 0;    ///< 0 = all cores
+    /// Adaptive sampling: spp sets the work, a pixel's samples follow its neighbours' error
+    /// (render/film.h, render_film). The path-traced methods of a plain render (run_setup.h).
+    bool adaptive = true;
 };
 
 /// The volume map's budget when the scene gives none and no rule sets it.

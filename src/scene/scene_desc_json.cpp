@@ -166,6 +166,7 @@ void render_fields(R& r, V& v) {
     v.value("max_depth", r.max_depth);
     v.value("seed", r.seed);
     v.value("threads", r.threads);
+    v.value("adaptive", r.adaptive);
 }
 
 template <class P, class V>

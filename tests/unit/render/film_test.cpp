@@ -214,7 +214,7 @@ CameraDesc camera_desc() {
 
 Film render_made_up(bool layered, TileShare share, RenderStats* stats) {
     return render_film(
-        Camera(camera_desc()), kSpp, 99, share, layered, PhotonParts::None, 1, true, stats,
+        Camera(camera_desc()), kSpp, 99, share, layered, PhotonParts::None, 1, false, true, stats,
         [] { return State{}; },
         [&](const Ray&, Rng&, State& state, const PixelSample& ps) {
             ++state.rays;
@@ -281,8 +281,8 @@ TEST(RenderFilm, PixelsHoldTheMeanOverSppAndLayersAddUpToTheBeauty) {
 // they are left out, and its pixel's map variance stays finite.
 TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
     const Film film = render_film(
-        Camera(camera_desc()), kSpp, 99, TileShare{}, false, PhotonParts::NoiseAndBias, 1, true,
-        nullptr, [] { return State{}; },
+        Camera(camera_desc()), kSpp, 99, TileShare{}, false, PhotonParts::NoiseAndBias, 1, false,
+        true, nullptr, [] { return State{}; },
         [&](const Ray&, Rng&, State&, const PixelSample& ps) {
             FilmSample f;
             f.beauty = Color(1.0f);

@@ -137,5 +137,42 @@ TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
     EXPECT_EQ(t.plan.integrator.reason, "picked; " + s.schedule);
 }
 
+// Adaptive sampling (docs/design.md): the path-traced methods of a plain render, said in the
+// Plan; off for the photon gather, for iterations, and for a share of the tiles without ranks to
+// exchange its sums with (--part), each in the settings that ran.
+TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePathsOfOnePlainRender) {
+    json doc = sunlit_cloud();
+    doc["render"]["spp"] = 16;
+    const auto resolved = [&](const std::string& integrator, int depth) {
+        doc["render"]["integrator"] = integrator;
+        doc["volume"]["gather_depth"] = depth;
+        return resolve_run(scene(doc));
+    };
+    for (const auto& [integrator, depth] :
+         {std::pair{"path", 0}, std::pair{"guided", 0}, std::pair{"photon", 3}}) {
+        const RunSetup s = resolved(integrator, depth);
+        EXPECT_TRUE(s.run.render.adaptive) << integrator;
+        EXPECT_TRUE(settings_json(s)["render"]["adaptive"].get<bool>());
+        EXPECT_NE(s.plan.integrator.reason.find("adaptive sampling: a first pass of 8 spp"),
+                  std::string::npos)
+            << s.plan.integrator.reason;
+    }
+    EXPECT_FALSE(resolved("photon", 0).run.render.adaptive);  // the photon gather
+    doc["progressive"]["iterations"] = 4;
+    EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["progressive"]["iterations"] = 0;
+    doc["render"]["adaptive"] = false;
+    EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["render"]["adaptive"] = true;
+
+    RunSetup part = resolved("path", 0);
+    part.share_tiles(TileShare{1, 3});
+    EXPECT_FALSE(part.run.render.adaptive);
+    EXPECT_EQ(part.plan.integrator.reason.find("adaptive"), std::string::npos);
+    RunSetup alone = resolved("path", 0);
+    alone.share_tiles(TileShare{0, 1});
+    EXPECT_TRUE(alone.run.render.adaptive);
+}
+
 }  // namespace
 }  // namespace fogmap

@@ -70,7 +70,7 @@ json full_scene() {
          "density_scale": 0.5, "sigma_s": 0.1, "sigma_a": [0.01, 0.02, 0.03], "g": -0.3}
       ],
       "render": {"integrator": "path", "spp": 64, "max_depth": 12,
-                 "seed": 18446744073709551615, "threads": 3},
+                 "seed": 18446744073709551615, "threads": 3, "adaptive": false},
       "photons": {"global": 2000, "caustic": 3000, "volume": 4000, "max_emitted": 900000,
                   "max_bounces": 7},
       "global": {"k": 80, "radius": 0.125, "final_gather": true, "gather_rays": 16},
@@ -190,6 +190,7 @@ TEST(SceneDescJson, FullSceneRoundTripsThroughToJson) {
     EXPECT_EQ(b.render.seed, a.render.seed);
     EXPECT_EQ(b.render.integrator, a.render.integrator);
     EXPECT_EQ(b.render.guide_vertices, 2);
+    EXPECT_FALSE(b.render.adaptive);
     EXPECT_EQ(b.photons.volume, a.photons.volume);
     EXPECT_EQ(b.photons.max_emitted, a.photons.max_emitted);
     EXPECT_EQ(b.photons.max_bounces, a.photons.max_bounces);
@@ -267,7 +268,8 @@ TEST(SceneDescJson, UnknownKeyNamesPointerAndListsKnownKeys) {
     EXPECT_EQ(e.file, "scene.json");
     EXPECT_EQ(e.field, "/render/spp_count");
     EXPECT_EQ(e.reason,
-              "unknown key 'spp_count'; known keys: integrator, max_depth, seed, spp, threads");
+              "unknown key 'spp_count'; known keys: adaptive, integrator, max_depth, seed, spp, "
+              "threads");
 
     const InputError top = parse_error(json::parse(R"({"medias": []})"));
     EXPECT_EQ(top.field, "/medias");
@@ -551,10 +553,12 @@ TEST(SceneDescOverride, BadOverridesFailThroughTheNormalChecks) {
 
     const InputError k = catch_input_error([&] { load_scene_desc(path, {"render.spp_count=3"}); });
     EXPECT_EQ(k.field, "/render/spp_count");
-    EXPECT_EQ(k.reason.rfind("unknown key 'spp_count'; known keys: integrator, max_depth, seed, "
-                             "spp, threads",
-                             0),
-              0u)
+    EXPECT_EQ(
+        k.reason.rfind("unknown key 'spp_count'; known keys: adaptive, integrator, max_depth, "
+                       "seed, "
+                       "spp, threads",
+                       0),
+        0u)
         << k.reason;
 }
 
