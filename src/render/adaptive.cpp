@@ -137,6 +137,7 @@ void share_tile_sums(TileShare share, std::vector<double>* sums) {
 }  // namespace
 
 int first_pass_spp(int spp, int unit) {
+    if (spp < kAdaptiveMinSpp) return spp;
     return std::min(spp, std::max(2 * unit, spp / 4 / unit * unit));
 }
 

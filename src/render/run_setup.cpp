@@ -414,14 +414,16 @@ bool RunSetup::photon_batches() const {
 }
 
 bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive) {
-    return desc.render.adaptive && method != Method::Gather && !progressive;
+    const int spp = desc.render.spp;
+    return desc.render.adaptive && method != Method::Gather && !progressive &&
+           first_pass_spp(spp, strata_unit(spp)) < spp;
 }
 
 void RunSetup::share_tiles(TileShare share) {
     tiles = share;
     if (share.count > 1 && !share.ranks && run.render.adaptive) {
         run.render.adaptive = false;
-        schedule.clear();
+        schedule.clear();  // adaptive sampling's: its runs have no iterations
         set_reason(reason);
     }
 }

@@ -143,7 +143,8 @@ int volume_k(const SceneDesc& desc);
 
 /// Whether render.adaptive applies to `desc` run by `method`, `progressive` or not: camera paths
 /// traced as paths (the photon gather reads its maps at advanced.map_spp samples a pixel, however
-/// many it takes), in a plain render of one iteration (whose film holds each pixel's samples).
+/// many it takes), in a plain render of one iteration (whose film holds each pixel's samples),
+/// of render.spp enough to leave a first pass something to allocate (first_pass_spp).
 bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive);
 
 /// resolve_run(desc).plan.

@@ -5,6 +5,8 @@
 
 #include "render/run_setup.h"
 
+#include "render/film.h"
+
 #include "scene/scene_desc_json.h"
 
 #include <gtest/gtest.h>
@@ -164,6 +166,11 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePathsOfOnePlainRender) 
     doc["render"]["adaptive"] = false;
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
     doc["render"]["adaptive"] = true;
+    doc["render"]["spp"] = kAdaptiveMinSpp - 1;  // too few for a first pass to pay
+    EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["render"]["spp"] = 8;  // a first pass of two strata groups would take them all
+    EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["render"]["spp"] = 16;
 
     RunSetup part = resolved("path", 0);
     part.share_tiles(TileShare{1, 3});
