@@ -391,11 +391,12 @@ double state_work(const State& state) {
 /// `photon_parts` asks for): every pixel of `share`'s tiles takes the samples range(pixel index)
 /// (none: the pixel is left as it is), its means written, or with `merge` (adaptive sampling's
 /// second pass) merged into the range's first s0 samples that `film` holds; `measure` (may be
-/// null) gets the pass's PassMeasure.
+/// null) gets the pass's PassMeasure; progress on stderr as `what` unless quiet.
 template <class MakeState, class Trace, class Range>
 void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonParts photon_parts,
-                 int unit, bool merge, bool quiet, PassCounters* counters, MakeState&& make_state,
-                 Trace&& trace, Range&& range, PassMeasure* measure, Film* film) {
+                 int unit, bool merge, bool quiet, const char* what, PassCounters* counters,
+                 MakeState&& make_state, Trace&& trace, Range&& range, PassMeasure* measure,
+                 Film* film) {
     const int w = camera.width(), h = camera.height();
     const std::optional<ShutterDesc>& shutter = camera.shutter();
     const bool layered = film->layered(), photon_batches = photon_parts != PhotonParts::None,
@@ -476,7 +477,7 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
         for (const auto& m : state.media) steps += m.steps();
         counters->steps += steps;
     };
-    render_tiles(w, h, share, quiet, make_state, shade, end_tile);
+    render_tiles(w, h, share, quiet, make_state, shade, end_tile, what);
 }
 
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
@@ -503,11 +504,14 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         film.map_variance = Image(film.beauty.width, film.beauty.height);
     if (photon_parts == PhotonParts::NoiseAndBias)
         film.bias_halves.assign(4, Image(film.beauty.width, film.beauty.height));
-    const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {
-        render_pass(camera, seed, share, photon_parts, unit, merge, quiet, &counters, make_state,
-                    trace, range, measure, &film);
-    };
     const int n1 = adaptive ? first_pass_spp(spp, unit) : spp;
+    const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {
+        const char* what = n1 >= spp ? "render"
+                           : merge   ? "render, more where the error is"
+                                     : "render, first pass";
+        render_pass(camera, seed, share, photon_parts, unit, merge, quiet, what, &counters,
+                    make_state, trace, range, measure, &film);
+    };
     const std::array<int, kBatches> counts = batch_counts(0, n1, unit);
     for (size_t b = 0; b < size_t(kBatches); ++b) film.batch_share[b] = double(counts[b]) / n1;
     if (n1 >= spp) {

@@ -64,14 +64,14 @@ struct TileShare {
 inline constexpr int kTile = 16;  ///< tiles are kTile × kTile pixels
 
 /// Calls shade_pixel(x, y, state) for every pixel of a width x height image in `share`'s tiles,
-/// with state = make_state() made once per tile, and end_tile(state) on the worker after each.
-/// Returns the number of pixels shaded.
+/// with state = make_state() made once per tile, and end_tile(state) on the worker after each;
+/// progress on stderr as `what` unless quiet. Returns the number of pixels shaded.
 template <class MakeState, class ShadePixel, class EndTile>
 uint64_t render_tiles(int width, int height, TileShare share, bool quiet, MakeState&& make_state,
-                      ShadePixel&& shade_pixel, EndTile&& end_tile) {
+                      ShadePixel&& shade_pixel, EndTile&& end_tile, const char* what = "render") {
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
     const int mine = (tiles_x * tiles_y - share.index + share.count - 1) / share.count;
-    Progress progress("render", static_cast<uint64_t>(std::max(mine, 0)), quiet);
+    Progress progress(what, static_cast<uint64_t>(std::max(mine, 0)), quiet);
     std::atomic<uint64_t> pixels{0};
     tbb::parallel_for(tbb::blocked_range<int>(0, std::max(mine, 0), 1), [&](const auto& range) {
         for (int t = range.begin(); t != range.end(); ++t) {
