@@ -167,7 +167,8 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
     }
     // The rest of a uniform render's work, (spp - n1) samples of every pixel at its first pass's
     // cost, spread as a / sqrt(c); for each pixel, the sums without what its own samples added
-    // (its own work replaced by its neighbours'), so that its count depends on them not at all.
+    // (its own work replaced by its neighbours'), so that its count does not depend on them (up
+    // to the sums' rounding).
     const double most = double(kAdaptiveMax) * spp - n1;
     std::vector<int> n(size_t(w) * h, 0);
     for (int tile = share.index; tile < tiles; tile += share.count) {

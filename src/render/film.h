@@ -315,7 +315,7 @@ struct PixelRange {
 };
 
 /// What the first pass of adaptive sampling measures per pixel beside its film: the beauty's sum
-/// of squares over the pass's finite samples, and its work per sample (rays and medium steps).
+/// of squares over the pass's finite samples, and its work per sample (state_work).
 struct PassMeasure {
     std::vector<Color> squares;
     std::vector<float> work;
@@ -514,30 +514,17 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     };
     const std::array<int, kBatches> counts = batch_counts(0, n1, unit);
     for (size_t b = 0; b < size_t(kBatches); ++b) film.batch_share[b] = double(counts[b]) / n1;
+    const auto first = [&](size_t) { return PixelRange{0, n1, n1}; };
     if (n1 >= spp) {
-        pass(
-            false,
-            [&](size_t) {
-                return PixelRange{0, spp, spp};
-            },
-            nullptr);
+        pass(false, first, nullptr);
     } else {
         PassMeasure measure;
-        pass(
-            false,
-            [&](size_t) {
-                return PixelRange{0, n1, n1};
-            },
-            &measure);
+        pass(false, first, &measure);
         film.pixel_spp = allocate_samples(film, measure, spp, n1, unit, seed, share);
         film.unit = unit;
         const std::vector<int>& n = film.pixel_spp;
-        pass(
-            true,
-            [&](size_t p) {
-                return PixelRange{n1, n[p], n[p]};
-            },
-            nullptr);
+        const auto more = [&](size_t p) { return PixelRange{n1, n[p], n[p]}; };
+        pass(true, more, nullptr);
     }
     if (stats) {
         counters.write(stats);
