@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 namespace fogmap {
@@ -169,7 +170,8 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
     // cost, spread as a / sqrt(c); for each pixel, the sums without what its own samples added
     // (its own work replaced by its neighbours'), so that its count does not depend on them (up
     // to the sums' rounding).
-    const double most = double(kAdaptiveMax) * spp - n1;
+    const double most =
+        std::min(double(kAdaptiveMax) * spp, double(std::numeric_limits<int>::max() - unit)) - n1;
     std::vector<int> n(size_t(w) * h, 0);
     for (int tile = share.index; tile < tiles; tile += share.count) {
         const auto [x0, y0, x1, y1] = bounds(tile);
