@@ -207,9 +207,9 @@ BiasSum bias_sum(const Film& film, const Weights& weight) {
     return out;
 }
 
-/// The estimate, its per-pixel variance and the tail flag.
-void estimate_variance(const Film& film, const std::vector<int>& active, const Weights& weight,
-                       ErrorEstimate* e) {
+/// The estimate, its per-pixel variance and the tail flag; `shares`: image_shares.
+void estimate_variance(const Film& film, const std::array<double, kBatches>& shares,
+                       const std::vector<int>& active, const Weights& weight, ErrorEstimate* e) {
     const Image& x = film.beauty;
     const size_t k = active.size();
     const int bx = (x.width + kBlock - 1) / kBlock, by = (x.height + kBlock - 1) / kBlock;
@@ -240,7 +240,6 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
     // The estimate is sum_i a_i G_i over the batches' draws G: its variance is var(G) sum a_i²;
     // this image's error is one more draw.
     double a2 = 0.0, var = 0.0;
-    const std::array<double, kBatches> shares = image_shares(film);
     for (int i : active) a2 += std::pow((1.0 - shares[size_t(i)]) / double(k - 1), 2);
     for (size_t t = 0; t < draws.size(); t += k) {
         const BlockPart& m = maps[t / k];
@@ -265,12 +264,13 @@ void estimate_variance(const Film& film, const std::vector<int>& active, const W
 
 ErrorEstimate estimate_error(const Film& film) {
     ErrorEstimate e;
-    const std::vector<int> active = active_batches(image_shares(film));
+    const std::array<double, kBatches> shares = image_shares(film);
+    const std::vector<int> active = active_batches(shares);
     e.batches = int(active.size());
     if (active.size() < 2 || film.beauty.pixels.empty()) return e;
     e.valid = true;
     const Weights weight(film, active);
-    estimate_variance(film, active, weight, &e);
+    estimate_variance(film, shares, active, weight, &e);
     return e;
 }
 

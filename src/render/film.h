@@ -124,9 +124,10 @@ struct Film {
     /// bias (BiasHalves); kept and emptied as map_variance is.
     std::vector<Image> bias_halves;
     Image variance, samples;  ///< written as EXR layers when set
-    /// Adaptive sampling (render/adaptive.h): each pixel's samples, batched by whole `unit`s as
-    /// render_film batches them, so that its batches' shares differ from pixel to pixel (and
-    /// batch_share holds the image's); empty when every pixel has the same.
+    /// Adaptive sampling (render/adaptive.cpp): each pixel's samples, batched by whole `unit`s as
+    /// render_film batches them, so that its batches' shares differ from pixel to pixel
+    /// (Film::shares; batch_share then holds the first pass's, which every pixel took); empty
+    /// when every pixel has the same.
     std::vector<int> pixel_spp;
     int unit = 1;
 

@@ -248,7 +248,9 @@ void RunEnd::estimate(Film* film, Report* report) const {
     if (setup.photon()) r.excludes = excluded(setup);
     film->variance = std::move(e.variance);
     film->samples = Image(report->width, report->height);
-    std::fill(film->samples.pixels.begin(), film->samples.pixels.end(), Color(float(report->spp)));
+    if (film->pixel_spp.empty())
+        std::fill(film->samples.pixels.begin(), film->samples.pixels.end(),
+                  Color(float(report->spp)));
     for (size_t p = 0; p < film->pixel_spp.size(); ++p)  // adaptive sampling's own
         film->samples.pixels[p] = Color(float(film->pixel_spp[p]));
     add_phase(report, "estimate", timer.seconds());

@@ -423,7 +423,6 @@ void RunSetup::share_tiles(TileShare share) {
     tiles = share;
     if (share.count > 1 && !share.ranks && run.render.adaptive) {
         run.render.adaptive = false;
-        schedule.clear();  // adaptive sampling's: its runs have no iterations
         set_reason(reason);
     }
 }
@@ -431,6 +430,12 @@ void RunSetup::share_tiles(TileShare share) {
 void RunSetup::set_reason(std::string why) {
     reason = std::move(why);
     plan.integrator.reason = reason + (schedule.empty() ? "" : "; " + schedule);
+    const int spp = run.render.spp;
+    if (run.render.adaptive)
+        plan.integrator.reason +=
+            "; adaptive sampling: a first pass of " +
+            std::to_string(first_pass_spp(spp, strata_unit(spp))) +
+            " spp, then the rest of render.spp's work where it shows the error";
 }
 
 namespace {
@@ -497,10 +502,6 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
     }
     s.progressive = p.enabled();
     d.render.adaptive = adaptive_sampling(d, s.method, s.progressive);
-    if (d.render.adaptive)
-        s.schedule = "adaptive sampling: a first pass of " +
-                     std::to_string(first_pass_spp(d.render.spp, strata_unit(d.render.spp))) +
-                     " spp, then the rest of render.spp's work where it shows the error";
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
     s.photons.volume_attempts = volume_attempts(d);

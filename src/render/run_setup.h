@@ -62,7 +62,8 @@ struct RunSetup {
     bool photon_batches() const;
     /// And the volume map's bias from its radius is measured (VolumeMapEnd, RadiusBias).
     bool map_bias() const { return photon_batches() && method == Method::MapEnd; }
-    /// Sets the reason, and the Plan's integrator line with it (and the schedule's).
+    /// Sets the reason, and the Plan's integrator line with it (and the schedule's, and whether
+    /// adaptive sampling runs).
     void set_reason(std::string why);
     /// This process renders `share` of the tiles: without ranks to share adaptive sampling's
     /// image-wide sums with (auto's pilot, --part), every pixel takes render.spp.
