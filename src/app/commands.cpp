@@ -87,9 +87,8 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const SceneDesc& desc = setup.run;
     const double pixels = double(desc.camera.width) * desc.camera.height;
     const bool photon = setup.photon();
-    const bool bias_halves = setup.map_bias();
-    const int layers =
-        1 + kLayerCount + kBatches + (setup.photon_batches() ? 1 : 0) + (bias_halves ? 4 : 0);
+    // A map variance and four bias halves where samples read photon batches.
+    const int layers = 1 + kLayerCount + kBatches + (setup.photon_batches() ? 1 + 4 : 0);
     // Films of the beauty, layers, batches, and map variance and bias halves (render/film.h):
     // the run's and the iteration's it adds (pipeline.cpp); the reference and, for progressive
     // runs, the running mean compared with it; the estimate's variance and samples layers; the
@@ -120,11 +119,11 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
     const uint64_t budget = memory_budget_bytes();
     if (total <= double(budget)) return;
     const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
-    const std::string images =
-        std::to_string(desc.camera.width) + " x " + std::to_string(desc.camera.height) +
-        " pixels x " + std::to_string(m.layers) + " images (beauty, layers, batches" +
-        (setup.photon_batches() ? ", the maps' variance" : "") +
-        (setup.map_bias() ? ", bias halves" : "") + ") x 2 films x 12 bytes, and more";
+    const std::string images = std::to_string(desc.camera.width) + " x " +
+                               std::to_string(desc.camera.height) + " pixels x " +
+                               std::to_string(m.layers) + " images (beauty, layers, batches" +
+                               (setup.photon_batches() ? ", the maps' variance, bias halves" : "") +
+                               ") x 2 films x 12 bytes, and more";
     throw InputError(desc.path, m.maps > m.images ? "/photons" : "/camera/width",
                      "the run needs about " + mb(total) + ": images " + mb(m.images) + " (" +
                          images + "), photon maps " + mb(m.maps) + "; only " + mb(double(budget)) +

@@ -42,7 +42,10 @@ public:
     /// the segment holds whole. Clipping matters where a segment starts inside the medium (a
     /// camera in fog) or ends there (at a surface): whole chords there would count the photons
     /// behind the camera too (docs/why.md).
-    template <class F>
+    /// With `kInner`, f(const Record&, float t, float kernel, float inner) also has the kernel of
+    /// the photon's sphere of radius r/√2 (the uniform kernel at that radius, normalised for it;
+    /// 0 where the segment misses that sphere): RadiusBias's estimate over r/√2.
+    template <bool kInner = false, class F>
     void for_each_hit(const Ray& ray, float t0, float t1, F&& f) const;
 
     size_t bytes() const;
@@ -54,7 +57,7 @@ private:
     Bvh bvh_;                      ///< over the photon spheres
 };
 
-template <class F>
+template <bool kInner, class F>
 void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
     bvh_.for_each_leaf(ray, t0, t1, [&](uint32_t begin, uint32_t end) {
         for (uint32_t i = begin; i < end; ++i) {
@@ -68,8 +71,21 @@ void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
             const double h = std::sqrt(p.r2 - d2);
             const double a = std::max<double>(t - h, t0), b = std::min<double>(t + h, t1);
             if (!(b > a)) continue;
-            f(p, static_cast<float>(std::clamp(t, a, b)),
-              p.norm * static_cast<float>(0.5 * (b - a)));
+            const float at = static_cast<float>(std::clamp(t, a, b));
+            const float kernel = p.norm * static_cast<float>(0.5 * (b - a));
+            if constexpr (kInner) {
+                constexpr float kInnerNorm = 2.8284271f;  // (r / (r/√2))³
+                const float in2 = static_cast<float>(0.5 * double(p.r2) - d2);
+                float inner = 0.0f;
+                if (in2 > 0.0f) {  // in float: an estimate of bias, not the image
+                    const float hi = std::sqrt(in2), tf = static_cast<float>(t);
+                    const float ai = std::max(tf - hi, t0), bi = std::min(tf + hi, t1);
+                    if (bi > ai) inner = p.norm * kInnerNorm * 0.5f * (bi - ai);
+                }
+                f(p, at, kernel, inner);
+            } else {
+                f(p, at, kernel);
+            }
         }
     });
 }

@@ -56,7 +56,14 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
         float w = 1.0f;
         if (cone_kf > 0.0f) w = 1.0f - std::sqrt(scratch[i].dist2) / (cone_kf * r);
         sum += w * p.power();
-        if (batches) batches->add(p, w * p.power(), scratch[i].dist2, r2);
+        if (!batches) continue;
+        // Over r/√2 the cone's weight falls to 0 at r/√2 (it is normalised as the whole's).
+        const bool in = 2.0f * scratch[i].dist2 < r2;
+        const float w_in = !in ? 0.0f
+                           : cone_kf > 0.0f
+                               ? 1.0f - std::sqrt(2.0f * scratch[i].dist2) / (cone_kf * r)
+                               : 1.0f;
+        batches->add(p, w * p.power(), w_in * p.power());
     }
     const float norm = cone_kf > 0.0f ? 1.0f - 2.0f / (3.0f * cone_kf) : 1.0f;
     return sum * (map.photon_power / (kPi * r2 * norm));

@@ -17,15 +17,47 @@ namespace fogmap {
 
 /// What an estimate's photon batches (Photon::batch) gave of its sum, the channels' averages in
 /// any common unit, added to what is there: each batch's part, and each half's (batches 0-3,
-/// 4-7) over the photons within r/√2 (render/volume_map_end.h, PhotonBatches and RadiusBias).
+/// 4-7) of the same estimate over radius r/√2 (render/volume_map_end.h, PhotonBatches and
+/// RadiusBias), its kernel's normalisation left out unless said (κ, below).
 struct BatchSums {
     std::array<float, Photon::kBatches> all{};
     std::array<float, 2> inner{};
-    /// A photon's part c at squared distance d2 of a lookup of squared radius r2.
+    /// A photon's part c at squared distance d2 of a lookup of squared radius r2 (a uniform
+    /// kernel: its part over r/√2 is c within it).
     void add(const Photon& p, const Color& c, float d2, float r2) {
-        const float part = average(c);
-        all[size_t(p.batch())] += part;
-        if (2.0f * d2 < r2) inner[size_t(p.batch() * 2 / Photon::kBatches)] += part;
+        add(p, c, 2.0f * d2 < r2 ? c : Color(0.0f));
+    }
+    /// A photon's part c, and c_inner of the estimate over r/√2.
+    void add(const Photon& p, const Color& c, const Color& c_inner) {
+        add(size_t(p.batch()), average(c), average(c_inner));
+    }
+    /// Batch `batch`'s part, and its part of the estimate over r/√2.
+    void add(size_t batch, float part, float inner_part) {
+        all[batch] += part;
+        inner[batch * 2 / Photon::kBatches] += inner_part;
+    }
+    /// Adds `sums`, an estimate's, in the unit of that estimate's value (its channels' average),
+    /// their inner parts times κ: a sum of estimates then has the sums of its terms', κ applied.
+    void add_scaled(const BatchSums& sums, float value, float kappa) {
+        const float total = sums.total();
+        if (!(total > 0.0f)) return;
+        const float scale = value / total;
+        for (size_t b = 0; b < all.size(); ++b) all[b] += sums.all[b] * scale;
+        for (size_t h = 0; h < inner.size(); ++h) inner[h] += sums.inner[h] * scale * kappa;
+    }
+    /// RadiusBias: each photon half's estimate of the bias of the estimate E these sums made, over
+    /// E: 2 (E_h(ρ) − E_h(ρ/√2)) / E with E_h(ρ) = 2 E × (the half's part) / total and
+    /// E_h(ρ/√2) = 2 E κ (its inner part) / total, κ the kernel's volume at ρ over its volume at
+    /// ρ/√2 (1 where the inner parts hold it); 0 where nothing was gathered.
+    std::array<float, 2> bias(float kappa) const {
+        const float sum = total();
+        std::array<float, 2> out{};
+        if (!(sum > 0.0f)) return out;
+        constexpr size_t kHalf = Photon::kBatches / 2;
+        std::array<float, 2> half{};
+        for (size_t b = 0; b < all.size(); ++b) half[b / kHalf] += all[b];
+        for (size_t h = 0; h < 2; ++h) out[h] = 4.0f * (half[h] - kappa * inner[h]) / sum;
+        return out;
     }
     /// The sum over batches.
     float total() const {
@@ -43,6 +75,11 @@ struct BatchSums {
         return out;
     }
 };
+
+/// BatchSums::bias's κ for the inner parts surface_irradiance and volume_inscattered give: the
+/// disc's area, and the ball's volume, at r over r/√2.
+inline constexpr float kDiscKappa = 2.0f;
+inline constexpr float kBallKappa = 2.8284271f;  // 2^{3/2}
 
 /// Irradiance (W/m²) at surface point x with unit normal n from photons that arrived on the side
 /// n faces. Photons whose flags intersect skip_flags are left out (the global map shown directly

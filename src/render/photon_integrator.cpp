@@ -141,13 +141,16 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
                                       float map_weight) const {
     const bool maps = map_weight > 0.0f;
     FilmSample out;
-    // PhotonBatches (render/volume_map_end.h): a map term's part from each batch alone.
+    // PhotonBatches and RadiusBias (render/volume_map_end.h): a map term's part from each batch
+    // alone, and each photon half's estimate of its bias (κ: BatchSums::bias's, for its lookup).
     BatchSums parts;
     BatchSums* const batches = photon_batches_ ? &parts : nullptr;
-    const auto add = [&](Layer layer, const Color& term) {
+    const auto add = [&](Layer layer, const Color& term, float kappa) {
         out[layer] += term;
         if (!batches) return;
         add_photon_delta(term, parts.shares(), &out.photon_delta);
+        const std::array<float, 2> bias = parts.bias(kappa);
+        for (size_t h = 0; h < 2; ++h) out.bias_half[h] += bias[h] * term;
         parts = BatchSums{};
     };
     Ray ray = camera_ray;
@@ -167,7 +170,8 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
             out[Layer::VolumeSingle] += volume_.single_scattering(ray, beta, rng, ts);
             if (maps)
                 add(Layer::VolumeMultiple,
-                    map_weight * volume_.multiple_scattering(ray, beta, rng, ts, batches));
+                    map_weight * volume_.multiple_scattering(ray, beta, rng, ts, batches),
+                    1.0f);  // its sums hold κ (VolumeGather)
             beta *= exp_neg(tau);
             if (max_component(beta) <= 0.0f) break;
         }
@@ -199,7 +203,8 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
                 map_weight * beta * mat.albedo * kInvPi *
                     surface_irradiance(*maps_.caustic, hit->p, n, estimator_k(gather_.caustic),
                                        gather_.caustic.radius, gather_.cone_filter, 0, ts.neighbors,
-                                       batches));
+                                       batches),
+                kDiscKappa);
         if (maps_.global) {
             if (gather_.final_gather)
                 out[Layer::Indirect] +=
@@ -209,7 +214,8 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
                     map_weight * beta * mat.albedo * kInvPi *
                         surface_irradiance(*maps_.global, hit->p, n, estimator_k(gather_.global),
                                            gather_.global.radius, 0.0f, Photon::kCaustic,
-                                           ts.neighbors, batches));
+                                           ts.neighbors, batches),
+                    kDiscKappa);
         }
         break;
     }
@@ -234,7 +240,7 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
-        photon_batches ? PhotonParts::Noise : PhotonParts::None,
+        photon_batches ? PhotonParts::NoiseAndBias : PhotonParts::None,
         map_step(settings.spp, settings.map_spp), /*adaptive=*/false, quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {

@@ -150,12 +150,32 @@ void warn_in(Report* report, bool speak, const std::string& text) {
     report->warnings.push_back(text);
 }
 
+/// Whose bias the estimate of a photon method's run measures, and what lowers it (the report's
+/// words; where samples read photon batches).
+void bias_words(const RunSetup& setup, ErrorReport* r) {
+    if (setup.method == Method::MapEnd) {
+        r->bias_of = "the volume map's";
+        r->bias_remedy =
+            "a smaller volume.radius (or more photons), progressive iterations or the path tracer "
+            "lower it";
+    } else {
+        r->bias_of = "the photon maps'";
+        r->bias_remedy =
+            "more photons (or smaller volume.k, global.k, caustic.k), progressive iterations or "
+            "the "
+            "path tracer lower it";
+    }
+}
+
 /// What the estimate of a photon method's run cannot see (the report's "not in it").
 std::string excluded(const RunSetup& setup) {
-    if (setup.map_bias())
-        return "the map's bias beyond its radius's blur (the bias² above holds that part only)";
-    if (setup.photon_batches() || setup.progressive)
-        return "the photon maps' bias (their gather radii blur the light)";
+    if (setup.photon_batches())
+        return setup.method == Method::MapEnd
+                   ? "the map's bias beyond its radius's blur (the bias² above holds that part "
+                     "only)"
+                   : "the maps' bias beyond their radii's blur (the bias² above holds that part "
+                     "only)";
+    if (setup.progressive) return "the photon maps' bias (their gather radii blur the light)";
     return "the photon maps' own noise and their bias (one set of maps serves every sample; their "
            "gather radii blur the light; photon beams and final gathering are not read in "
            "batches)";
@@ -246,6 +266,7 @@ void RunEnd::estimate(Film* film, Report* report) const {
     r.reached = r.target > 0.0 && meets_target(e, r.target);
     r.iterations = progressive ? int(counts.iterations) : 1;  // ranks of a plain run add 1 each
     if (setup.photon()) r.excludes = excluded(setup);
+    if (setup.photon_batches()) bias_words(setup, &r);
     film->variance = std::move(e.variance);
     film->samples = Image(report->width, report->height);
     if (film->pixel_spp.empty())

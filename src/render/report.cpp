@@ -31,18 +31,15 @@ std::string error_text(const ErrorReport& e) {
     std::string text = "error estimate: relMSE " + general(e.rel_mse) + " [" + general(e.lo) +
                        ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
                        " batches of " + e.batched_by + "\n";
+    const std::string of_which = "error estimate: of which " + e.bias_of + " bias²";
     if (e.bias_valid && e.bias2 <= 0.0)  // noise about a small bias
-        text +=
-            "error estimate: of which the volume map's bias²: too small to measure here (95% "
-            "upper bound " +
-            general(std::max(e.bias_hi, 0.0)) + ")\n";
+        text += of_which + ": too small to measure here (95% upper bound " +
+                general(std::max(e.bias_hi, 0.0)) + ")\n";
     else if (e.bias_valid) {
-        text += "error estimate: of which the volume map's bias² " + general(e.bias2) + " [" +
-                general(e.bias_lo) + ", " + general(e.bias_hi) + "] (95%)\n";
+        text += of_which + " " + general(e.bias2) + " [" + general(e.bias_lo) + ", " +
+                general(e.bias_hi) + "] (95%)\n";
         if (e.bias_lo > 0.0)
-            text +=
-                "error estimate: the map's bias is measurable: a smaller volume.radius (or "
-                "more photons), progressive iterations or the path tracer lower it\n";
+            text += "error estimate: " + e.bias_of + " bias is measurable: " + e.bias_remedy + "\n";
     }
     if (!e.excludes.empty()) text += "error estimate: not in it: " + e.excludes + "\n";
     if (e.target > 0.0)

@@ -41,7 +41,9 @@ struct ErrorReport {
     bool valid = false;                        ///< false: too few batches (why says)
     std::string why;                           ///< when not valid, why
     double rel_mse = 0.0, lo = 0.0, hi = 0.0;  ///< the estimate and its 95% interval
-    bool bias_valid = false;                   ///< the volume map's bias² was estimated
+    bool bias_valid = false;                   ///< the maps' bias² was estimated
+    std::string bias_of;      ///< whose bias, possessive: "the volume map's", "the photon maps'"
+    std::string bias_remedy;  ///< what lowers it
     double bias2 = 0.0, bias_lo = 0.0, bias_hi = 0.0;  ///< its part of rel_mse, interval
     int batches = 0;                           ///< batches holding samples
     std::string batched_by;                    ///< "samples" (of a pixel) or "iterations"

@@ -56,12 +56,10 @@ struct RunSetup {
     /// The photon integrator's methods (the others trace no photon maps).
     bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
     /// A plain run's photon maps serve every sample, so samples read them in photon batches and
-    /// the film measures their noise (and, where camera paths end in the volume map, its bias):
-    /// render/volume_map_end.h, PhotonBatches; every lookup of the photon gather must be able to
+    /// the film measures their noise and their radii's bias (render/volume_map_end.h,
+    /// PhotonBatches, RadiusBias); every lookup of the photon gather must be able to
     /// (PhotonIntegrator::batches_supported).
     bool photon_batches() const;
-    /// And the volume map's bias from its radius is measured (VolumeMapEnd, RadiusBias).
-    bool map_bias() const { return photon_batches() && method == Method::MapEnd; }
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's, and whether
     /// adaptive sampling runs).
     void set_reason(std::string why);

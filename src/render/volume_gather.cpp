@@ -161,10 +161,7 @@ Color VolumeGather::sphere_estimate(const Vec3& dir, Rng& rng, State& st,
                                            st.neighbors, batches ? &parts : nullptr);
         sum += c;
         st.gathered += st.neighbors.size();
-        if (!batches) return;  // the lookup's part per batch, in the sum's unit
-        const std::array<float, Photon::kBatches> shares = parts.shares();
-        for (size_t b = 0; b < shares.size(); ++b)
-            batches->all[b] += average(c) * shares[b] / float(Photon::kBatches);
+        if (batches) batches->add_scaled(parts, average(c), kBallKappa);  // in the sum's unit
     };
     const std::vector<MarchedStep>& steps = st.steps;
     const size_t m = static_cast<size_t>(lookups_per_ray_);
@@ -197,19 +194,22 @@ Color VolumeGather::beam_estimate(const Ray& ray, State& st, BatchSums* batches)
     const bool one_medium = st.media.size() == 1;
     const PhaseMix single(st.media, ray.o);  // with one medium the same everywhere
     Color sum(0.0f);
-    beam_->for_each_hit(ray, t0, t1, [&](const BeamTree::Record& p, float t, float kernel) {
-        ++st.lookups;
-        // τ stays at the previous step's end in the gap before a step.
-        const MarchedStep* it = step_at(depth, t);
-        if (!it) return;
-        const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
-        const float phase =
-            one_medium ? single.eval(glm::dot(p.direction, -ray.d))
-                       : PhaseMix(st.media, p.position).eval(glm::dot(p.direction, -ray.d));
-        const Color c = phase * kernel * exp_neg(tau) * p.power;
-        sum += c;
-        if (batches) batches->all[p.batch] += average(c);
-    });
+    // With the kernel over r/√2 for RadiusBias, wanted or not (a call apart was not inlined).
+    beam_->for_each_hit<true>(
+        ray, t0, t1, [&](const BeamTree::Record& p, float t, float kernel, float inner) {
+            ++st.lookups;
+            // τ stays at the previous step's end in the gap before a step.
+            const MarchedStep* it = step_at(depth, t);
+            if (!it) return;
+            const Color tau = it->tau0 + it->sigma_t * std::max(0.0f, t - it->t0);
+            const float phase =
+                one_medium ? single.eval(glm::dot(p.direction, -ray.d))
+                           : PhaseMix(st.media, p.position).eval(glm::dot(p.direction, -ray.d));
+            const Color c = phase * kernel * exp_neg(tau) * p.power;
+            sum += c;
+            if (batches)  // RadiusBias: the photon's kernel over r/√2, normalised (κ 1)
+                batches->add(p.batch, average(c), average(c) * inner / kernel);
+        });
     return sum * map_->photon_power;
 }
 

@@ -66,7 +66,8 @@ public:
 
     /// Multiple scattering over the marched segment (after march()) from the volume map: the
     /// beam or the sphere estimate, already weighted by the throughput. `batches` (may be null;
-    /// not for photon beams, which have no batches): what each photon batch gave of it.
+    /// not for photon beams, which have no batches): what each photon batch gave of it, and the
+    /// estimate over r/√2, in its unit with κ applied (BatchSums::bias(1)).
     Color multiple_scattering(const Ray& ray, const Color& beta, Rng& rng, State& st,
                               BatchSums* batches = nullptr) const;
 

@@ -246,7 +246,7 @@ bool VolumeMapEnd::assign_slots() {
     if (batched_ && phase_fits_) {
         if (recycle_) reserve_recycled(&batch_power_, nodes.size());
         batch_power_.assign(nodes.size(), BatchSums{});
-        kappa_.assign(nodes.size(), kInnerVolumes);  // σ̄'s ratio 1 until set_table
+        kappa_.assign(nodes.size(), kBallKappa);  // σ̄'s ratio 1 until set_table
     }
     return true;
 }
@@ -449,8 +449,8 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
 float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
     const float inner =
         table_ ? average(table_->cube_average(x, equal_volume_edge(rho * float(M_SQRT1_2)))) : 0.0f;
-    if (!(inner > 0.0f)) return kInnerVolumes;
-    return kInnerVolumes * average(table_->cube_average(x, equal_volume_edge(rho))) / inner;
+    if (!(inner > 0.0f)) return kBallKappa;
+    return kBallKappa * average(table_->cube_average(x, equal_volume_edge(rho))) / inner;
 }
 
 void VolumeMapEnd::set_table(const SigmaTable* table) {
@@ -463,13 +463,9 @@ void VolumeMapEnd::set_table(const SigmaTable* table) {
 
 // PhotonBatches and RadiusBias (header): 2 (E_h(ρ) − E_h(ρ/√2)) over E, E_h(ρ) = E × 2 P_h / P.
 void VolumeMapEnd::parts_of(const BatchSums& sums, float kappa, Parts* parts) {
-    const float all = sums.total();
-    if (!(all > 0.0f)) return;
+    if (!(sums.total() > 0.0f)) return;
     parts->shares = sums.shares();
-    constexpr size_t kHalf = Photon::kBatches / 2;
-    std::array<float, 2> half{};
-    for (size_t b = 0; b < sums.all.size(); ++b) half[b / kHalf] += sums.all[b];
-    for (size_t h = 0; h < 2; ++h) parts->bias[h] = 4.0f * (half[h] - kappa * sums.inner[h]) / all;
+    parts->bias = sums.bias(kappa);
 }
 
 BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {

@@ -208,9 +208,8 @@ public:
     static constexpr float kLeanMinOffset = 0.02f;
 
 private:
-    /// RadiusBias's κ at x for radius rho (kInnerVolumes without a table).
+    /// RadiusBias's κ at x for radius rho (kBallKappa without a table).
     float kappa(const Vec3& x, float rho) const;
-    static constexpr float kInnerVolumes = 2.8284271f;  ///< V(ρ) / V(ρ/√2), 2^{3/2}
     /// PhotonBatches' and RadiusBias's parts of a lookup from its batches' sums, whose inner sums
     /// are weighed by `kappa`.
     static void parts_of(const BatchSums& sums, float kappa, Parts* parts);

@@ -125,6 +125,26 @@ TEST(ErrorCalibration, AFourTimesWiderVolumeRadiusIsFlaggedAsBiasedAndTheDefault
                 wide.bias2, wide.bias_lo, wide.bias_hi);
 }
 
+// The photon gather's maps' bias (photon/estimators.h, BatchSums::bias): fog.json's gather with
+// sixteen times the global map's k (its discs four times as wide over the floor's lit ellipse,
+// whose edge they blur) is flagged, and above the default's estimate. (The default's own bias is
+// within its reference's noise: docs/error-estimate.md.)
+TEST(ErrorCalibration, TheGathersWiderDiscsAreFlaggedAsBiased) {
+    const Case fog{"scenes/fog.json", 160, 90, 0};
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + fog.scene;
+    std::vector<std::string> o = size_overrides(fog);
+    o.push_back("render.spp=8");
+    const ErrorReport plain = run_pipeline(load_scene_desc(path, o), true).report.error;
+    o.push_back("global.k=1600");
+    const ErrorReport wide = run_pipeline(load_scene_desc(path, o), true).report.error;
+    ASSERT_TRUE(plain.bias_valid);
+    ASSERT_TRUE(wide.bias_valid);
+    EXPECT_GT(wide.bias_lo, 0.0) << wide.bias2;
+    EXPECT_GT(wide.bias2, plain.bias2);
+    std::printf("bias²: default %.3g [%.3g, %.3g], global.k x 16 %.3g [%.3g, %.3g]\n", plain.bias2,
+                plain.bias_lo, plain.bias_hi, wide.bias2, wide.bias_lo, wide.bias_hi);
+}
+
 /// The path tracer on smoke.json at 2 spp an iteration, with `extra` overrides.
 PipelineResult path_run(const std::vector<std::string>& extra) {
     std::vector<std::string> o = size_overrides(kSmoke);

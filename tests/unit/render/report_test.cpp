@@ -184,7 +184,10 @@ TEST(Report, TheVolumeMapsBiasIsFlaggedOnlyWhenItsIntervalExcludesZero) {
     e.batches = 8;
     e.batched_by = "samples";
     e.bias_valid = true;
-    const std::string flag = "error estimate: the map's bias is measurable";
+    e.bias_of = "the volume map's";
+    e.bias_remedy = "a smaller volume.radius lowers it";
+    const std::string flag =
+        "error estimate: the volume map's bias is measurable: a smaller volume.radius lowers it";
     e.bias2 = 0.000125, e.bias_lo = 0.0000625, e.bias_hi = 0.00025;
     std::string t = report_text(r);
     EXPECT_NE(t.find("of which the volume map's bias² 0.000125 [6.25e-05, 0.00025] (95%)"),
