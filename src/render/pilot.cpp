@@ -97,6 +97,12 @@ Pilot pilot_share(const SceneDesc& desc) {
     return pilot;
 }
 
+double pilot_samples_share(const SceneDesc& desc, const Pilot& pilot) {
+    const double pixels = double(desc.camera.width) * desc.camera.height;
+    const ShareLayout layout(desc.camera.width, desc.camera.height, pilot.tile_count);
+    return 6.0 * double(layout.size()) * pilot.spp / (pixels * desc.render.spp);
+}
+
 namespace {
 
 // What a pilot run scales by: f, the pilot's share of the render's samples, and f_photons, its
@@ -243,24 +249,42 @@ SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup) {
     return desc;
 }
 
+namespace {
+
+// Why `desc` (piloted_desc's) takes the photon integrator without a pilot, or "" where one runs:
+// progressive iterations, few samples a pixel (kPilotMaxShare), a small render (kPilotMaxSamples).
+std::string no_pilot_reason(const SceneDesc& desc) {
+    const std::string why = "auto: media under sun, sky or area lights, and ";
+    if (desc.progressive.enabled())
+        return why +
+               "progressive iterations (a count, a time budget or a target): photon mapping, "
+               "whose radii shrink with them (no pilot)";
+    const Pilot share = pilot_share(desc);
+    if (share.spp > kPilotMaxShare * desc.render.spp)
+        return why + std::to_string(desc.render.spp) + " spp, where a pilot (" +
+               std::to_string(share.spp) +
+               " spp) would cost more than the render: photon without one" + map_end_words(desc);
+    if (const double f = pilot_samples_share(desc, share); f > kPilotMaxSamples) {
+        char text[64];
+        std::snprintf(text, sizeof text, "%.0f%%", 100.0 * f);
+        return why + "a render of " + std::to_string(desc.camera.width) + " x " +
+               std::to_string(desc.camera.height) + " x " + std::to_string(desc.render.spp) +
+               " spp, whose pilot would take " + text +
+               " of its camera samples: photon without one" + map_end_words(desc);
+    }
+    return "";
+}
+
+}  // namespace
+
 RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
                       SharedTables* shared, bool* piloted) {
     if (piloted) *piloted = false;
     if (!setup.pilot) return setup;
     setup.pilot = false;
     const SceneDesc desc = piloted_desc(file, setup);
-    if (desc.progressive.enabled()) {
-        setup.set_reason(
-            "auto: media under sun, sky or area lights, and progressive iterations (a count, a "
-            "time budget or a target): photon mapping, whose radii shrink with them (no pilot)");
-        return setup;
-    }
-    const Pilot share = pilot_share(desc);
-    if (share.spp > kPilotMaxShare * desc.render.spp) {
-        setup.set_reason(
-            "auto: media under sun, sky or area lights, and " + std::to_string(desc.render.spp) +
-            " spp, where a pilot (" + std::to_string(share.spp) +
-            " spp) would cost more than the render: photon without one" + map_end_words(desc));
+    if (const std::string why = no_pilot_reason(desc); !why.empty()) {
+        setup.set_reason(why);
         return setup;
     }
     const Pilot pilot = run_pilot(desc, scene, shared);

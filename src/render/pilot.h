@@ -85,6 +85,17 @@ Pilot pilot_share(const SceneDesc& desc);
 /// it, pilot_auto picks the photon integrator without a pilot.
 inline constexpr double kPilotMaxShare = 0.25;
 
+/// Nor does a pilot run whose six images take more than this share of the render's camera
+/// samples (small images, whose pilot is its 8 tiles at least): at 160x120 and 16-32 spp the
+/// photon integrator without a pilot had 0.65-0.93 of auto's relMSE x time on smoke1 over the
+/// ground, the Disney cloud and a uniform slab, and 0.43-0.51 on smoke1 at a tenth of its σ, where
+/// the pilot picked the path tracer (docs/measurements.md, Choosing an integrator).
+inline constexpr double kPilotMaxSamples = 0.05;
+
+/// The share of the render's camera samples the pilot's six images of `pilot` (its tiles and
+/// spp) take.
+double pilot_samples_share(const SceneDesc& desc, const Pilot& pilot);
+
 /// The seed of the pilot's run k (0 or 1) of each candidate for the render seed `seed`:
 /// derive_seed(seed, stream::kPilot, k) (core/rng.h), so that the pairs of any two render seeds
 /// share no seed and their picks are independent.
@@ -102,8 +113,8 @@ SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup);
 /// `setup` (resolve_run of `file`) with auto's pick settled: where setup.pilot, the pilot's pick
 /// re-resolved from `file`, the measured reason appended; progressive runs keep the photon
 /// integrator (the others have no iterations) without a pilot, and so do renders of few samples
-/// (kPilotMaxShare). A setup without a pilot pending is returned unchanged. `piloted` (may be
-/// null): set to whether a pilot ran.
+/// (kPilotMaxShare, kPilotMaxSamples). A setup without a pilot pending is returned unchanged.
+/// `piloted` (may be null): set to whether a pilot ran.
 RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
                       SharedTables* shared = nullptr, bool* piloted = nullptr);
 

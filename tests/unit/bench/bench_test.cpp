@@ -319,10 +319,10 @@ TEST_F(BenchCommand, SweptRunsOfAnAutoSceneUseThePhotonMaps) {
     EXPECT_GT(std::stoi(split(lines[1], ',')[stored]), 0);
     EXPECT_EQ(split(lines[2], ',')[0], "path");
 
-    // Named, auto runs as `fogmap render` runs it: its pilot timed with it (16 spp: with fewer
-    // there is no pilot, kPilotMaxShare).
+    // Named, auto runs as `fogmap render` runs it: its pilot timed with it (512 spp: with fewer
+    // on 8 x 6 pixels there is no pilot, kPilotMaxSamples).
     const RunResult a = run(
-        "--reference-spp 4 --set render.spp=16 --sweep render.integrator=auto,photon --path-spp "
+        "--reference-spp 4 --set render.spp=512 --sweep render.integrator=auto,photon --path-spp "
         "none" +
         outputs());
     ASSERT_EQ(a.code, 0) << a.err;

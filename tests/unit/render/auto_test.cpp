@@ -118,8 +118,10 @@ TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
 }
 
 // kPilotMaxShare: at 8 spp the pilot's 4 would be half the render's samples per pixel (its
-// photon runs tracing twice the render's photons): photon without a pilot, saying why; at 16
-// spp (a quarter) the pilot runs.
+// photon runs tracing twice the render's photons): photon without a pilot, saying why.
+// kPilotMaxSamples: at 16 spp on a 64 x 36 image (one pilot tile of its 12) the pilot's six
+// images would take 6 x 4 / 16 of the render's camera samples: photon without one, saying why; at
+// 512 spp, 6 x 4 / 512 (4.7%), the pilot runs.
 TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     const SceneDesc few = small_smoke(8, 0.03f);  // thin: the pilot would pick path at 64 spp
     EXPECT_GT(pilot_share(few).spp, kPilotMaxShare * few.render.spp);
@@ -131,8 +133,17 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
                                  "the render: photon without one"),
               std::string::npos)
         << picked.reason;
-    const SceneDesc more = small_smoke(16, 0.03f);
-    EXPECT_EQ(pilot_share(more).spp, 4);
+    const SceneDesc small = small_smoke(16, 0.03f);
+    EXPECT_EQ(pilot_share(small).spp, 4);
+    EXPECT_DOUBLE_EQ(pilot_samples_share(small, pilot_share(small)), 1.5);
+    const RunSetup small_pick = pick(small, &piloted);
+    EXPECT_FALSE(piloted);
+    EXPECT_NE(small_pick.reason.find("a render of 64 x 36 x 16 spp, whose pilot would take 150% of "
+                                     "its camera samples: photon without one"),
+              std::string::npos)
+        << small_pick.reason;
+    const SceneDesc more = small_smoke(512, 0.03f);
+    EXPECT_DOUBLE_EQ(pilot_samples_share(more, pilot_share(more)), 6.0 * 4.0 / 512.0);
     EXPECT_NE(pick(more, &piloted).reason.find("a pilot (1 in"), std::string::npos);
     EXPECT_TRUE(piloted);
     // The report times a pilot only where one ran.
@@ -142,6 +153,7 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
         return false;
     };
     EXPECT_FALSE(has_pilot_phase(few));
+    EXPECT_FALSE(has_pilot_phase(small));
     EXPECT_TRUE(has_pilot_phase(more));
 }
 
