@@ -540,7 +540,7 @@ constexpr double kProgramBytes = 40.0 * (1 << 20);
 /// photon maps, each grid's tree and sampler from the file's metadata) and the program, and its
 /// samples and photons, without loading or tracing anything.
 int dry_run(const RenderArgs& args, const RenderJob& job) {
-    const RunSetup setup = resolve_run(job.desc);
+    const RunSetup setup = decline_pilot(job.desc, resolve_run(job.desc));
     const RunMemory m = run_memory(setup, !args.reference.empty());
     double grids = 0.0;
     bool unknown = false;

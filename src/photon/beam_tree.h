@@ -74,7 +74,7 @@ void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
             const float at = static_cast<float>(std::clamp(t, a, b));
             const float kernel = p.norm * static_cast<float>(0.5 * (b - a));
             if constexpr (kInner) {
-                constexpr float kInnerNorm = 2.8284271f;  // (r / (r/√2))³
+                constexpr float kInnerNorm = 2.8284271f;  // (r / (r/√2))³, estimators.h kBallKappa
                 const float in2 = static_cast<float>(0.5 * double(p.r2) - d2);
                 float inner = 0.0f;
                 if (in2 > 0.0f) {  // in float: an estimate of bias, not the image

@@ -251,8 +251,7 @@ SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup) {
 
 namespace {
 
-// Why `desc` (piloted_desc's) takes the photon integrator without a pilot, or "" where one runs:
-// progressive iterations, few samples a pixel (kPilotMaxShare), a small render (kPilotMaxSamples).
+// Why `desc` (piloted_desc's) takes the photon integrator without a pilot, or "" where one runs.
 std::string no_pilot_reason(const SceneDesc& desc) {
     const std::string why = "auto: media under sun, sky or area lights, and ";
     if (desc.progressive.enabled())
@@ -277,16 +276,22 @@ std::string no_pilot_reason(const SceneDesc& desc) {
 
 }  // namespace
 
+RunSetup decline_pilot(const SceneDesc& file, RunSetup setup) {
+    if (!setup.pilot) return setup;
+    if (const std::string why = no_pilot_reason(piloted_desc(file, setup)); !why.empty()) {
+        setup.pilot = false;
+        setup.set_reason(why);
+    }
+    return setup;
+}
+
 RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
                       SharedTables* shared, bool* piloted) {
     if (piloted) *piloted = false;
+    setup = decline_pilot(file, std::move(setup));
     if (!setup.pilot) return setup;
     setup.pilot = false;
     const SceneDesc desc = piloted_desc(file, setup);
-    if (const std::string why = no_pilot_reason(desc); !why.empty()) {
-        setup.set_reason(why);
-        return setup;
-    }
     const Pilot pilot = run_pilot(desc, scene, shared);
     if (piloted) *piloted = true;
     const PilotCandidate& best = pilot.candidates[pilot.best];

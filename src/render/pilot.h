@@ -110,11 +110,16 @@ Pilot run_pilot(const SceneDesc& desc, const Scene& scene, SharedTables* shared 
 /// gather depth auto gave it in `setup` (resolve_run of `file`), before any split into iterations.
 SceneDesc piloted_desc(const SceneDesc& file, const RunSetup& setup);
 
-/// `setup` (resolve_run of `file`) with auto's pick settled: where setup.pilot, the pilot's pick
-/// re-resolved from `file`, the measured reason appended; progressive runs keep the photon
-/// integrator (the others have no iterations) without a pilot, and so do renders of few samples
-/// (kPilotMaxShare, kPilotMaxSamples). A setup without a pilot pending is returned unchanged.
-/// `piloted` (may be null): set to whether a pilot ran.
+/// `setup` (resolve_run of `file`) with no pilot where none would run: progressive runs keep the
+/// photon integrator (the others have no iterations), and so do renders of few samples
+/// (kPilotMaxShare, kPilotMaxSamples), the reason saying why and setup.pilot false; otherwise
+/// unchanged. It needs no scene, so a dry run says what the run will do.
+RunSetup decline_pilot(const SceneDesc& file, RunSetup setup);
+
+/// `setup` (resolve_run of `file`) with auto's pick settled: declined as decline_pilot says, else,
+/// where setup.pilot, the pilot's pick re-resolved from `file`, the measured reason appended. A
+/// setup without a pilot pending is returned unchanged. `piloted` (may be null): set to whether a
+/// pilot ran.
 RunSetup settle_pilot(const SceneDesc& file, RunSetup setup, const Scene& scene,
                       SharedTables* shared = nullptr, bool* piloted = nullptr);
 

@@ -142,7 +142,12 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
                                      "its camera samples: photon without one"),
               std::string::npos)
         << small_pick.reason;
+    // A dry run, without a scene, says the same (decline_pilot).
+    const RunSetup declined = decline_pilot(small, resolve_run(small));
+    EXPECT_FALSE(declined.pilot);
+    EXPECT_EQ(declined.reason, small_pick.reason);
     const SceneDesc more = small_smoke(512, 0.03f);
+    EXPECT_TRUE(decline_pilot(more, resolve_run(more)).pilot);
     EXPECT_DOUBLE_EQ(pilot_samples_share(more, pilot_share(more)), 6.0 * 4.0 / 512.0);
     EXPECT_NE(pick(more, &piloted).reason.find("a pilot (1 in"), std::string::npos);
     EXPECT_TRUE(piloted);
