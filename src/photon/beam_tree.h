@@ -11,6 +11,7 @@
 // Immutable after construction; queries are thread-safe.
 
 #include "photon/bvh.h"
+#include "photon/estimators.h"
 #include "photon/photon_pass.h"
 
 #include <cstdint>
@@ -74,13 +75,12 @@ void BeamTree::for_each_hit(const Ray& ray, float t0, float t1, F&& f) const {
             const float at = static_cast<float>(std::clamp(t, a, b));
             const float kernel = p.norm * static_cast<float>(0.5 * (b - a));
             if constexpr (kInner) {
-                constexpr float kInnerNorm = 2.8284271f;  // (r / (r/√2))³, estimators.h kBallKappa
                 const float in2 = static_cast<float>(0.5 * double(p.r2) - d2);
                 float inner = 0.0f;
                 if (in2 > 0.0f) {  // in float: an estimate of bias, not the image
                     const float hi = std::sqrt(in2), tf = static_cast<float>(t);
                     const float ai = std::max(tf - hi, t0), bi = std::min(tf + hi, t1);
-                    if (bi > ai) inner = p.norm * kInnerNorm * 0.5f * (bi - ai);
+                    if (bi > ai) inner = p.norm * kBallKappa * 0.5f * (bi - ai);  // (r / (r/√2))³
                 }
                 f(p, at, kernel, inner);
             } else {

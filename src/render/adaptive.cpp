@@ -145,17 +145,12 @@ int first_pass_spp(int spp, int unit) {
 std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure, int spp, int n1,
                                   int unit, uint64_t seed, TileShare share) {
     const int w = first.beauty.width, h = first.beauty.height;
-    const int tiles_x = (w + kTile - 1) / kTile, tiles_y = (h + kTile - 1) / kTile;
-    const int tiles = tiles_x * tiles_y;
+    const int tiles = tile_count(w, h);
     std::vector<PixelAllocation> pixels(size_t(w) * h);
     std::vector<double> sums(2 * size_t(tiles), 0.0);  // per tile: Σ a sqrt(c), Σ c
-    const auto bounds = [&](int tile) {
-        const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-        return std::array<int, 4>{x0, y0, std::min(x0 + kTile, w), std::min(y0 + kTile, h)};
-    };
     tbb::parallel_for(0, tiles, [&](int tile) {
         if (tile % share.count != share.index) return;
-        const auto [x0, y0, x1, y1] = bounds(tile);
+        const auto [x0, y0, x1, y1] = tile_rect(w, h, tile);
         const std::array<double, 2> s = allocate_tile(first, measure, n1, x0, y0, x1, y1, &pixels);
         sums[2 * size_t(tile)] = s[0];
         sums[2 * size_t(tile) + 1] = s[1];
@@ -174,7 +169,7 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
         std::min(double(kAdaptiveMax) * spp, double(std::numeric_limits<int>::max() - unit)) - n1;
     std::vector<int> n(size_t(w) * h, 0);
     for (int tile = share.index; tile < tiles; tile += share.count) {
-        const auto [x0, y0, x1, y1] = bounds(tile);
+        const auto [x0, y0, x1, y1] = tile_rect(w, h, tile);
         for (int y = y0; y < y1; ++y)
             for (int x = x0; x < x1; ++x) {
                 const size_t p = size_t(y) * w + x;

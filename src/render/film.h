@@ -379,13 +379,19 @@ inline constexpr double kRayWork = 1.0;       ///< an Embree query
 inline constexpr double kLookupWork = 2.0;    ///< a volume-map, guide or sun-grid lookup
 inline constexpr double kGatheredWork = 1.0;  ///< a photon a lookup gathered from a kd-tree
 
+/// A state's medium steps so far (its media samplers').
+template <class State>
+uint64_t state_steps(const State& state) {
+    uint64_t steps = 0;
+    for (const auto& m : state.media) steps += m.steps();
+    return steps;
+}
+
 /// A state's work so far, in medium steps (the cost model above).
 template <class State>
 double state_work(const State& state) {
-    uint64_t steps = 0;
-    for (const auto& m : state.media) steps += m.steps();
-    return double(steps) + kRayWork * double(state.rays) + kLookupWork * double(state.lookups) +
-           kGatheredWork * double(state.gathered);
+    return double(state_steps(state)) + kRayWork * double(state.rays) +
+           kLookupWork * double(state.lookups) + kGatheredWork * double(state.gathered);
 }
 
 /// One pass of render_film into `film` (of the image's shape, with the parts' images that
@@ -474,9 +480,7 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
         counters->capped += state.capped;
         counters->lookups += state.lookups;
         counters->gathered += state.gathered;
-        uint64_t steps = 0;
-        for (const auto& m : state.media) steps += m.steps();
-        counters->steps += steps;
+        counters->steps += state_steps(state);
     };
     render_tiles(w, h, share, quiet, make_state, shade, end_tile, what);
 }

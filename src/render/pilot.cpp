@@ -45,11 +45,11 @@ std::string map_end_words(const SceneDesc& desc) {
 
 ShareLayout::ShareLayout(int width, int height, int count)
     : width_(width), height_(height), tiles_x_((width + kTile - 1) / kTile), count_(count) {
-    const int tiles = tiles_x_ * ((height + kTile - 1) / kTile);
+    const int tiles = tile_count(width, height);
     for (int t = 0; t < tiles; t += count) {
         offset_.push_back(size_);
-        const int x0 = (t % tiles_x_) * kTile, y0 = (t / tiles_x_) * kTile;
-        size_ += size_t(std::min(kTile, width - x0)) * size_t(std::min(kTile, height - y0));
+        const TileRect r = tile_rect(width, height, t);
+        size_ += size_t(r.x1 - r.x0) * size_t(r.y1 - r.y0);
     }
 }
 
@@ -83,8 +83,7 @@ Work work_units(const Report& r) {
 
 Pilot pilot_share(const SceneDesc& desc) {
     const int width = desc.camera.width, height = desc.camera.height;
-    const int tiles_x = (width + kTile - 1) / kTile,
-              tiles = tiles_x * ((height + kTile - 1) / kTile);
+    const int tiles_x = (width + kTile - 1) / kTile, tiles = tile_count(width, height);
     Pilot pilot;
     // As many tiles as the share allows at 4 spp (1 in 2048 / spp; all of them, at spp / 512,
     // from 2048 spp), for the variance of many pixels. A count prime to the tiles of a row

@@ -162,8 +162,7 @@ void bias_words(const RunSetup& setup, ErrorReport* r) {
         r->bias_of = "the photon maps'";
         r->bias_remedy =
             "more photons (or smaller volume.k, global.k, caustic.k), progressive iterations or "
-            "the "
-            "path tracer lower it";
+            "the path tracer lower it";
     }
 }
 

@@ -63,22 +63,36 @@ struct TileShare {
 
 inline constexpr int kTile = 16;  ///< tiles are kTile × kTile pixels
 
+/// The tiles of a width × height image.
+inline int tile_count(int width, int height) {
+    return ((width + kTile - 1) / kTile) * ((height + kTile - 1) / kTile);
+}
+
+/// The pixels [x0, x1) × [y0, y1) of tile `tile` of a width × height image, its tiles numbered
+/// row by row (the last ones clipped to the image).
+struct TileRect {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+inline TileRect tile_rect(int width, int height, int tile) {
+    const int tiles_x = (width + kTile - 1) / kTile;
+    const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+    return {x0, y0, std::min(x0 + kTile, width), std::min(y0 + kTile, height)};
+}
+
 /// Calls shade_pixel(x, y, state) for every pixel of a width x height image in `share`'s tiles,
 /// with state = make_state() made once per tile, and end_tile(state) on the worker after each;
 /// progress on stderr as `what` unless quiet. Returns the number of pixels shaded.
 template <class MakeState, class ShadePixel, class EndTile>
 uint64_t render_tiles(int width, int height, TileShare share, bool quiet, MakeState&& make_state,
                       ShadePixel&& shade_pixel, EndTile&& end_tile, const char* what = "render") {
-    const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
-    const int mine = (tiles_x * tiles_y - share.index + share.count - 1) / share.count;
+    const int mine = (tile_count(width, height) - share.index + share.count - 1) / share.count;
     Progress progress(what, static_cast<uint64_t>(std::max(mine, 0)), quiet);
     std::atomic<uint64_t> pixels{0};
     tbb::parallel_for(tbb::blocked_range<int>(0, std::max(mine, 0), 1), [&](const auto& range) {
         for (int t = range.begin(); t != range.end(); ++t) {
             const int tile = share.index + t * share.count;
             auto state = make_state();
-            const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-            const int x1 = std::min(x0 + kTile, width), y1 = std::min(y0 + kTile, height);
+            const auto [x0, y0, x1, y1] = tile_rect(width, height, tile);
             for (int y = y0; y < y1; ++y)
                 for (int x = x0; x < x1; ++x) shade_pixel(x, y, state);
             end_tile(state);
