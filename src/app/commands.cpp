@@ -563,7 +563,8 @@ int dry_run(const RenderArgs& args, const RenderJob& job) {
     const auto mb = [](double bytes) { return mb_text(static_cast<uint64_t>(bytes)); };
     const SceneDesc& d = setup.run;
     std::cout << "dry run: " << args.scene << "\n"
-              << "integrator: " << integrator_name(setup.method) << " (" << setup.reason << ")\n"
+              << "integrator: " << integrator_name(setup.method) << " ("
+              << setup.plan.integrator.reason << ")\n"
               << "predicted peak memory: about " << mb(m.images + m.maps + grids + kProgramBytes)
               << " (images " << mb(m.images) << ", photon maps " << mb(m.maps) << ", grids "
               << mb(grids) << (unknown ? " and grids without size metadata" : "")

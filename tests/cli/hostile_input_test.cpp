@@ -264,6 +264,24 @@ TEST_F(HostileInput, ADryRunPredictsThePeakWithoutRenderingOrWriting) {
     EXPECT_FALSE(fs::exists(path("o.png")));
 }
 
+TEST_F(HostileInput, ADryRunSaysTheIntegratorTheRunReports) {
+    // The run's own report is the independent value: the dry run's integrator line (method, why,
+    // schedule and adaptive sampling) must be the one the render then prints.
+    const auto integrator_line = [](const std::string& out) {
+        const size_t at = out.find("integrator: ");
+        return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+    };
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json" +
+                              " --set camera.width=48 --set camera.height=27";
+    const RunResult dry = run("render " + scene + " --dry-run -o " + path("o.exr"));
+    const RunResult real = run("render " + scene + " -o " + path("o.exr"));
+    ASSERT_EQ(dry.code, 0) << dry.err;
+    ASSERT_EQ(real.code, 0) << real.err;
+    const std::string line = integrator_line(dry.out);
+    EXPECT_NE(line.find("adaptive sampling: a first pass of 8 spp"), std::string::npos) << line;
+    EXPECT_EQ(line, integrator_line(real.out + real.err));
+}
+
 TEST_F(HostileInput, VdbWhoseActiveTileSpansTheIndexSpaceIsRefusedUpFront) {
     // A 600-byte file: one active tile at the root level (4096^3 voxels) at voxel size 0.001.
     // The sampler's cells cover the active box: 512^3 cells, ~6 GB, minutes of work.
