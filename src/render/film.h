@@ -2,18 +2,19 @@
 // The image side of every integrator: the output layers (one enumeration and its name table,
 // in EXR order), one camera sample's radiance split into them, the film of pixel means and its
 // fixed-point sum over iterations, the render statistics, and the per-pixel sample loop every
-// integrator runs (pixel key, N-rooks position, the sample's Rng(seed, pixel, s), non-finite
-// samples dropped, the mean). A layered film's beauty is the sum of its layers; an unlayered one
-// holds beauty alone. Beside the mean, every film keeps kBatches batch means of the beauty, from
-// which the run estimates its own error (render/error_estimate.h). Deterministic: pixel (x, y),
-// sample s draws from Rng(seed, y*width+x, s) and falls in batch s mod kBatches, whatever the
-// thread.
+// integrator runs (pixel key, position (render/batches.h), the sample's Rng(seed, pixel, s),
+// non-finite samples dropped, the mean). A layered film's beauty is the sum of its layers; an
+// unlayered one holds beauty alone. Beside the mean, every film keeps kBatches batch means of the
+// beauty, from which the run estimates its own error (render/error_estimate.h). Deterministic:
+// pixel (x, y), sample s draws from Rng(seed, y*width+x, s) and falls in batch (s / unit) mod
+// kBatches, whatever the thread.
 
 #include "core/error.h"
 #include "core/image.h"
 #include "core/parallel.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "render/batches.h"
 #include "render/camera.h"
 #include "render/tiles.h"
 
@@ -37,12 +38,6 @@ inline constexpr std::array kLayerNames{"direct",  "volume_single", "volume_mult
                                         "caustic", "indirect",      "emission"};
 static_assert(kLayerNames.size() == size_t(kLayerCount),
               "one name per Layer, and kLayerCount up to the last one");
-
-/// Independent batches of every film: camera sample s of a pixel falls in batch s mod kBatches
-/// (render_film: or whole units of samples; a run of many iterations batches whole iterations
-/// instead: render/pipeline.cpp), so batches are a function of the sample's index alone, the same
-/// at any thread or rank count.
-inline constexpr int kBatches = 8;
 
 /// What a film keeps of the photon batches its samples read (FilmSample::photon_delta and
 /// bias_half): nothing, the map's noise (Film::map_variance), or its noise and bias (and
@@ -82,16 +77,15 @@ struct PixelSample {
     float time = 0.0f;  ///< seconds from the frame within the camera's shutter (0: none)
 };
 
-/// The time of sample s of a pixel within `shutter`: the `count` samples of its pass (s's index
-/// among them `index`) stratified over the shutter (one per count-th, in an order shuffled per
-/// pixel), each uniform in its stratum, from a stream of their own (the samples' Rng untouched).
-inline float shutter_time(const ShutterDesc& shutter, int s, int index, int count, uint64_t seed,
-                          uint64_t pixel) {
+/// The time of sample s of a pass of a pixel within `shutter`: the pass's samples stratified over
+/// the shutter as `strata` says (each batch's over it too, in an order shuffled per pixel), each
+/// uniform in its stratum, from a stream of their own (the samples' Rng untouched).
+inline float shutter_time(const ShutterDesc& shutter, const PassStrata& strata, int s,
+                          uint64_t seed, uint64_t pixel) {
     const uint64_t key = derive_seed(seed, stream::kShutter, pixel);
-    const uint32_t stratum =
-        permute(static_cast<uint32_t>(index), static_cast<uint32_t>(count), key);
+    const int stratum = strata.stratum(s, key, true);
     const float u = Rng(key, static_cast<uint64_t>(s)).uniform();
-    return shutter.seconds(std::min((float(stratum) + u) / float(count), 1.0f));
+    return shutter.seconds(std::min((float(stratum) + u) / float(strata.size()), 1.0f));
 }
 
 struct RenderStats {
@@ -231,27 +225,6 @@ private:
         return r;
     }
 };
-
-/// How many of samples [s0, s1) of a pixel fall in each batch, batched by whole `unit`s: sample s
-/// in batch (s / unit) mod kBatches.
-inline std::array<int, kBatches> batch_counts(int s0, int s1, int unit) {
-    // Samples [0, m) hold m / (kBatches unit) whole rounds of every batch, then the rest in order.
-    const auto upto = [unit](int m, int b) {
-        const int round = kBatches * unit;
-        return m / round * unit + std::clamp(m % round - b * unit, 0, unit);
-    };
-    std::array<int, kBatches> n{};
-    for (int b = 0; b < kBatches; ++b) n[size_t(b)] = upto(s1, b) - upto(s0, b);
-    return n;
-}
-
-/// 1 / count per batch of `counts` (0 for an empty one).
-inline std::array<float, kBatches> batch_inverse(const std::array<int, kBatches>& counts) {
-    std::array<float, kBatches> inv{};
-    for (size_t b = 0; b < size_t(kBatches); ++b)
-        inv[b] = counts[b] > 0 ? 1.0f / float(counts[b]) : 0.0f;
-    return inv;
-}
 
 inline std::array<double, kBatches> Film::shares(size_t p) const {
     if (pixel_spp.empty()) return batch_share;
@@ -426,12 +399,12 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
         uint64_t dropped = 0;
         const double work = measure ? state_work(state) : 0.0;
         const uint64_t jitter_key = pixel_key(seed, pixel);
+        const PassStrata strata(r.s0, r.s1, unit);
         for (int s = r.s0; s < r.s1; ++s) {
             Rng rng(seed, pixel, static_cast<uint64_t>(s));
-            const Vec2 j =
-                pixel_jitter(s - r.s0, n, jitter_key, Vec2(rng.uniform(), rng.uniform()));
+            const Vec2 j = pass_jitter(strata, s, jitter_key, Vec2(rng.uniform(), rng.uniform()));
             PixelSample ps{s, r.total, jitter_key, x, y};
-            if (shutter) ps.time = shutter_time(*shutter, s, s - r.s0, n, seed, pixel);
+            if (shutter) ps.time = shutter_time(*shutter, strata, s, seed, pixel);
             const FilmSample c = trace(camera.generate(x + j.x, y + j.y), rng, state, ps);
             const Color beauty = layered ? c.layer_sum() : c.beauty;
             if (!is_finite(beauty)) {
@@ -486,7 +459,7 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
 }
 
 /// The per-pixel sample loop of every integrator: for each pixel of `camera`'s image in `share`'s
-/// tiles (the others stay 0), spp samples at N-rooks positions, sample s drawing from
+/// tiles (the others stay 0), spp samples at PassStrata's positions, sample s drawing from
 /// Rng(seed, pixel, s) first its two position uniforms, then trace(ray, rng, state, PixelSample)
 /// -> FilmSample; non-finite samples are dropped (counted) and the film holds the mean over its
 /// samples, and the mean over each batch's samples (a dropped sample counts as 0 in both).

@@ -229,7 +229,9 @@ float map_weight(const PixelSample& ps, int map_spp) {
     const int step = map_step(ps.spp, map_spp);
     if (step == 1) return 1.0f;
     const int offset = static_cast<int>(mix64(ps.key ^ stream::kMapSamples) % uint64_t(step));
-    return (ps.s + offset) % step == 0 ? static_cast<float>(step) : 0.0f;
+    const int blocks = (ps.spp + step - 1) / step, block = ps.s / step;
+    const int shift = block % kBatches * step / std::min(blocks, kBatches);
+    return (ps.s + offset + shift) % step == 0 ? static_cast<float>(step) : 0.0f;
 }
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,

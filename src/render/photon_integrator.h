@@ -71,11 +71,13 @@ private:
 };
 
 /// The weight of sample ps's photon-map lookups when map_spp of a pixel's samples make them
-/// (advanced.map_spp; 0 = all, weight 1): sample s is chosen when (s + offset) % step == 0, with
-/// step = spp / map_spp (integer division) and the pixel's offset uniform in [0, step) (from
-/// ps.key), so every sample is chosen with probability 1/step and weighs step (Horvitz–Thompson:
-/// unbiased), and the chosen samples' N-rooks columns are stratified over the pixel. 0 for the
-/// others.
+/// (advanced.map_spp; 0 = all, weight 1): one sample in each block of step = spp / map_spp
+/// (integer division) consecutive samples, the block's batch unit (render_photon): sample s of
+/// block B = s / step is chosen when (s + offset + shift_B) % step == 0, with the pixel's offset
+/// uniform in [0, step) (from ps.key), so every sample is chosen with probability 1/step and
+/// weighs step (Horvitz–Thompson: unbiased). shift_B = batch(B) step / min(blocks, kBatches)
+/// spreads the chosen samples of the batches' blocks, which share their coarse columns
+/// (render/batches.h), over the pixel. 0 for the others.
 float map_weight(const PixelSample& ps, int map_spp);
 /// map_weight's step: every block of step consecutive samples holds one chosen sample.
 int map_step(int spp, int map_spp);

@@ -1,8 +1,8 @@
 #pragma once
 // The render pass's parallel loop: 16x16 tiles over TBB (as many workers as the run's
-// ThreadLimit allows), one thread state per tile and a progress bar; and the sub-pixel sample
-// positions (N-rooks). Pixels depend only on their own indices, so the image is the same for any
-// thread count. render/film.h builds the per-pixel sample loop on these.
+// ThreadLimit allows), one thread state per tile and a progress bar; and the pixels' keys and
+// shuffles. Pixels depend only on their own indices, so the image is the same for any thread
+// count. render/film.h builds the per-pixel sample loop on these (positions: render/batches.h).
 
 #include "core/math.h"
 #include "core/progress.h"
@@ -19,18 +19,26 @@ namespace fogmap {
 
 class Ranks;
 
-/// A bijection of [0, n) chosen by key (cycle-walking a bijective hash of the next power of two).
+/// A bijection of [0, n) chosen by key: rounds of bijections of [0, 2^b) (b bits for n − 1) —
+/// xor and add of key bits, odd multiplies, xor-shifts by small amounts —, cycle-walked into
+/// [0, n). The small shifts matter: multiplies and adds alone are affine maps, 8 of the 24
+/// orders of four, the same few for every key, so the strata of different keys' orders would
+/// line up (render/batches.h).
 inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
     if (n <= 1) return 0;
     uint32_t mask = 1;
     while (mask < n - 1) mask = (mask << 1) | 1;
-    const uint32_t k1 = static_cast<uint32_t>(key) | 1u, k2 = static_cast<uint32_t>(key >> 32);
     do {  // each step is a bijection of [0, mask]
-        i = (i * k1 + k2) & mask;
-        i ^= i >> 3;
-        i = (i * 0x2C1B3C6Du) & mask;
-        i ^= (i >> 5) ^ (i >> 11);
-        i = (i + (k2 >> 7)) & mask;
+        for (uint64_t round = 0; round < 8; ++round) {
+            const uint64_t k = mix64(key + round);
+            i ^= static_cast<uint32_t>(k) & mask;
+            i = (i * (static_cast<uint32_t>(k >> 32) | 1u)) & mask;
+            i ^= i >> 1;
+            i = (i + static_cast<uint32_t>(k >> 16)) & mask;
+            i ^= i >> 2;
+            i = (i * 0x2C1B3C6Du) & mask;
+            i ^= i >> 3;
+        }
     } while (i >= n);
     return i;
 }
@@ -38,18 +46,6 @@ inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
 /// The key of a pixel's row shuffle: its own stream, apart from the pixel's sample streams.
 inline uint64_t pixel_key(uint64_t seed, uint64_t pixel) {
     return mix64(mix64(seed + stream::kPixelRows) ^ ~pixel);
-}
-
-/// Sub-pixel position of sample s of spp in a pixel, from two uniforms u: N-rooks (Latin
-/// hypercube) sampling — each of the spp columns and each of the spp rows of the pixel holds
-/// exactly one sample, the rows shuffled per pixel by key — so edges cost less noise than with
-/// independent positions; each sample stays uniform over the pixel when s is uniform.
-inline Vec2 pixel_jitter(int s, int spp, uint64_t key, Vec2 u) {
-    const uint32_t n = static_cast<uint32_t>(spp);
-    const float inv = 1.0f / static_cast<float>(n);
-    const uint32_t row = permute(static_cast<uint32_t>(s), n, key);
-    return Vec2(std::min((static_cast<float>(s) + u.x) * inv, 0x1.fffffep-1f),
-                std::min((static_cast<float>(row) + u.y) * inv, 0x1.fffffep-1f));
 }
 
 /// The tiles one process renders: t ≡ index (mod count), rows of tiles in turn, so ranks sharing

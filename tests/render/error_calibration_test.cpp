@@ -1,5 +1,6 @@
 // Calibration of the error estimate (render/error_estimate.h) against references: each run's
-// true relMSE against a high-sample path-traced reference of the same scene, beside its estimate
+// true relMSE against a high-sample path-traced reference of the same scene (less the
+// reference's own estimated relMSE, which adds to it), beside its estimate
 // and 95% interval; over seeds, how often the interval's upper bound holds the truth and the
 // median ratio estimate / truth. The default tests take one small case; the study
 // (ErrorCalibrationHeavy, label heavy) takes four scenes x two integrators x three sample counts
@@ -37,6 +38,10 @@ struct Run {
 struct Row {
     std::string scene, integrator;
     int spp = 0, runs = 0, covered = 0, tails = 0;
+    /// Runs whose reference's own error is above a quarter of the error measured against it: the
+    /// reference cannot tell their truth (fog.json's photon gather against 4096 spp of the path
+    /// tracer, whose fireflies are most of the error measured from 16 spp on).
+    int unresolved = 0;
     double median_ratio = 0.0;
     std::vector<Run> points;
 };
@@ -46,9 +51,16 @@ std::vector<std::string> size_overrides(const Case& c) {
     return {"camera.width=" + std::to_string(c.width), "camera.height=" + std::to_string(c.height)};
 }
 
+/// A reference image and its own estimated relMSE, which adds to every error measured against
+/// it (its noise is independent of the runs').
+struct Reference {
+    Image image;
+    double own = 0.0;
+};
+
 /// The path-traced reference of `c`, rendered once per test program.
-const Image& reference(const Case& c) {
-    static std::map<std::string, Image> made;
+const Reference& reference(const Case& c) {
+    static std::map<std::string, Reference> made;
     const std::string key =
         c.scene + " " + std::to_string(c.width) + " " + std::to_string(c.reference_spp);
     if (made.count(key)) return made[key];
@@ -57,11 +69,14 @@ const Image& reference(const Case& c) {
     o.push_back("render.spp=" + std::to_string(c.reference_spp));
     o.push_back("render.seed=987654321");
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + c.scene;
-    return made[key] = run_pipeline(load_scene_desc(path, o), true).film.beauty;
+    const PipelineResult r = run_pipeline(load_scene_desc(path, o), true);
+    return made[key] = Reference{r.film.beauty, r.report.error.rel_mse};
 }
 
-/// `seeds` runs of `integrator` ("" = the scene's) at `spp` against `ref`.
-Row calibrate(const Case& c, const Image& ref, const std::string& integrator, int spp, int seeds) {
+/// `seeds` runs of `integrator` ("" = the scene's) at `spp` against `ref`: the truth is the
+/// relMSE against it less its own.
+Row calibrate(const Case& c, const Reference& ref, const std::string& integrator, int spp,
+              int seeds) {
     Row row{c.scene, integrator.empty() ? "default" : integrator, spp};
     std::vector<double> ratios;
     for (int seed = 1; seed <= seeds; ++seed) {
@@ -73,7 +88,9 @@ Row calibrate(const Case& c, const Image& ref, const std::string& integrator, in
         const PipelineResult r = run_pipeline(load_scene_desc(path, o), true);
         const ErrorReport& e = r.report.error;
         EXPECT_TRUE(e.valid) << c.scene << " " << spp << " spp";
-        const Run run{image_error(r.film.beauty, ref).rel_mse, e.rel_mse, e.hi, e.tail};
+        const double measured = image_error(r.film.beauty, ref.image).rel_mse;
+        const Run run{measured - ref.own, e.rel_mse, e.hi, e.tail};
+        row.unresolved += ref.own > 0.25 * measured;
         row.covered += run.truth <= run.hi;
         row.tails += run.tail;
         ratios.push_back(run.estimate / run.truth);
@@ -84,9 +101,9 @@ Row calibrate(const Case& c, const Image& ref, const std::string& integrator, in
     row.median_ratio = 0.5 * (ratios[(ratios.size() - 1) / 2] + ratios[ratios.size() / 2]);
     std::printf(
         "%s %s %d spp: truth below the upper bound in %d / %d, median estimate / truth "
-        "%.3f, tail flag in %d\n",
+        "%.3f, tail flag in %d, the reference's own error above a quarter of the measured in %d\n",
         row.scene.c_str(), row.integrator.c_str(), spp, row.covered, row.runs, row.median_ratio,
-        row.tails);
+        row.tails, row.unresolved);
     return row;
 }
 
@@ -94,7 +111,7 @@ const Case kSmoke{"scenes/smoke.json", 160, 90, 1024};
 
 TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
     const Case& smoke = kSmoke;
-    const Image ref = reference(smoke);
+    const Reference& ref = reference(smoke);
     for (const std::string integrator : {"path", ""}) {
         const Row row = calibrate(smoke, ref, integrator, 8, 20);
         EXPECT_GE(row.covered, 18) << row.integrator;
@@ -156,13 +173,13 @@ PipelineResult path_run(const std::vector<std::string>& extra) {
 }
 
 TEST(ErrorCalibration, ATargetStopsAtTheFirstLookBelowItAndTheTruthIsBelowToo) {
-    const Image& ref = reference(kSmoke);
+    const Reference& ref = reference(kSmoke);
     const double target = 0.002;
     const PipelineResult run = path_run({"progressive.target_relmse=0.002"});
     const ErrorReport& e = run.report.error;
     ASSERT_TRUE(e.reached);
     EXPECT_LE(e.hi, target);
-    EXPECT_LE(image_error(run.film.beauty, ref).rel_mse, target);
+    EXPECT_LE(image_error(run.film.beauty, ref.image).rel_mse - ref.own, target);
     // Looks at 8, 16, 32, ... iterations: it stopped at one, the look before it had not reached.
     const int n = e.iterations;
     ASSERT_GE(n, 16);
@@ -176,7 +193,7 @@ TEST(ErrorCalibration, ATargetStopsAtTheFirstLookBelowItAndTheTruthIsBelowToo) {
 
 void write_study(const std::vector<Row>& rows) {
     std::ofstream csv("error_calibration.csv");
-    csv << "scene,integrator,spp,runs,covered,median_ratio,tail_flags\n";
+    csv << "scene,integrator,spp,runs,covered,median_ratio,tail_flags,unresolved\n";
     LogLogPlot plot;
     plot.title = "Estimated against true relMSE, 20 seeds each";
     plot.x_label = "true relMSE (against a path-traced reference)";
@@ -187,7 +204,7 @@ void write_study(const std::vector<Row>& rows) {
     size_t series = 0;
     for (const Row& r : rows) {
         csv << r.scene << "," << r.integrator << "," << r.spp << "," << r.runs << "," << r.covered
-            << "," << r.median_ratio << "," << r.tails << "\n";
+            << "," << r.median_ratio << "," << r.tails << "," << r.unresolved << "\n";
         if (plot.series.empty() || plot.series.back().label != r.scene + " " + r.integrator)
             plot.series.push_back({r.scene + " " + r.integrator,
                                    colors[series++ % 8],
@@ -215,17 +232,18 @@ TEST(ErrorCalibrationHeavy, FourScenesTwoIntegratorsThreeSampleCounts) {
                           {"bench/scenes/cloud_ground.json", 0, 0, 8192}};
     std::vector<Row> rows;
     for (const Case& c : cases) {
-        const Image ref = reference(c);
+        const Reference& ref = reference(c);
         for (const std::string integrator : {"", "path"})
             for (int spp : {4, 16, 64}) rows.push_back(calibrate(c, ref, integrator, spp, 20));
     }
     write_study(rows);
     for (const Row& r : rows) {
         const std::string what = r.scene + " " + r.integrator + " " + std::to_string(r.spp);
+        if (r.unresolved > r.runs / 2) continue;  // the reference cannot judge this row
         EXPECT_GE(r.covered, 18) << what;
         EXPECT_GE(r.median_ratio, 0.8) << what;
-        // fog.json's photon gather errs high: a few pixels of the spot's glow, whose neighbours
-        // are several times darker, carry its estimate (docs/error-estimate.md).
+        // fog.json's photon gather errs high: at 4 spp its map-lookup unit is one sample, and
+        // batches of one sample cannot hold the N-rooks positions' gain (docs/error-estimate.md).
         if (r.scene != "scenes/fog.json" || r.integrator == "path")
             EXPECT_LE(r.median_ratio, 1.25) << what;
     }
