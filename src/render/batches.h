@@ -14,7 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
-#include <numeric>
+#include <cstring>
 
 namespace fogmap {
 
@@ -52,19 +52,21 @@ inline std::array<float, kBatches> batch_inverse(const std::array<int, kBatches>
 /// dimension of [0, 1) (see the top of this file). Sample s, the j-th of its batch b in the pass,
 /// takes coarse stratum k of its batch (j itself, or j's place in an order drawn from the key),
 /// and its stratum of the pass is the rank of (k + ½) / n_b among all the pass's samples' such
-/// values; samples of several batches at one value are ordered by a hash of the key, that value
-/// and the batch.
+/// values; samples of several batches at one value are ordered by a bijection of the batch
+/// indices drawn from the key and that value.
 class PassStrata {
 public:
     PassStrata(int s0, int s1, int unit)
-        : counts_(batch_counts(s0, s1, unit)), s0_(s0), n_(s1 - s0), unit_(unit) {}
+        : counts_(batch_counts(s0, s1, unit)), n_(s1 - s0), unit_(unit) {
+        for (int b = 0; b < kBatches; ++b) before_[size_t(b)] = batch_upto(s0, b, unit);
+    }
     int size() const { return n_; }
     /// Sample s's stratum in [0, size()) along the dimension keyed `key`; `shuffle`: its batch's
     /// coarse strata in an order drawn from the key, else in sample order.
     int stratum(int s, uint64_t key, bool shuffle) const {
         const int b = s / unit_ % kBatches;
         const uint32_t nb = uint32_t(counts_[size_t(b)]);
-        uint32_t k = uint32_t(batch_upto(s, b, unit_) - batch_upto(s0_, b, unit_));
+        uint32_t k = uint32_t(batch_upto(s, b, unit_) - before_[size_t(b)]);
         if (shuffle) k = permute(k, nb, mix64(key ^ uint64_t(b)));
         return rank(b, int64_t(k), key);
     }
@@ -73,28 +75,35 @@ private:
     /// How many of the pass's samples come before batch b's coarse stratum k.
     int rank(int b, int64_t k, uint64_t key) const {
         const int64_t nb = counts_[size_t(b)], num = 2 * k + 1;
-        const int64_t g = std::gcd(num, 2 * nb);  // (k + ½) / n_b as num / den in lowest terms
-        const uint64_t tie_key = mix64(key ^ mix64(uint64_t(num / g) << 32 ^ uint64_t(2 * nb / g)));
-        const auto order = [tie_key](int c) { return mix64(tie_key ^ uint64_t(c)); };
-        int r = 0;
+        // Ties are of equal values (2k + 1) / (2 n_b), which divide to the same double; they are
+        // ordered by a bijection of the batch indices drawn from the key and that value.
+        const double value = double(num) / double(2 * nb);
+        uint64_t bits;
+        std::memcpy(&bits, &value, sizeof bits);
+        const uint64_t h = mix64(key ^ bits);
+        const auto order = [h](int c) {
+            return ((uint64_t(c) ^ h) * ((h >> 8) | 1) + (h >> 16)) & (kBatches - 1);
+        };
+        int r = int(k);  // batch b's own strata before k
         for (int c = 0; c < kBatches; ++c) {
             const int64_t nc = counts_[size_t(c)];
-            if (nc == 0 || c == b) {
-                r += c == b ? int(k) : 0;
+            if (nc == 0 || c == b) continue;
+            if (nc == nb) {  // strata 0 .. k − 1 before, k tied
+                r += int(k) + (order(c) < order(b));
                 continue;
             }
             // Batch c's strata i with (2i + 1) / (2 n_c) below num / (2 n_b): 2 i n_b < a.
             const int64_t a = num * nc - nb;
             r += a <= 0 ? 0 : int(std::min(nc, (a + 2 * nb - 1) / (2 * nb)));
             // One of batch c's strata at the same value: i = (num n_c / n_b − 1) / 2.
-            const bool tie = num * nc % nb == 0 && num * nc / nb % 2 == 1;
-            if (tie && (order(c) < order(b) || (order(c) == order(b) && c < b))) ++r;
+            if (num * nc % nb == 0 && num * nc / nb % 2 == 1) r += order(c) < order(b);
         }
         return r;
     }
 
     std::array<int, kBatches> counts_;
-    int s0_, n_, unit_;
+    std::array<int, kBatches> before_{};  ///< each batch's samples before the pass
+    int n_, unit_;
 };
 
 /// Sub-pixel position of sample s of a pass (strata: the pass's), from two uniforms u: its

@@ -19,18 +19,35 @@ namespace fogmap {
 
 class Ranks;
 
-/// A bijection of [0, n) chosen by key: rounds of bijections of [0, 2^b) (b bits for n − 1) —
-/// xor and add of key bits, odd multiplies, xor-shifts by small amounts —, cycle-walked into
-/// [0, n). The small shifts matter: multiplies and adds alone are affine maps, 8 of the 24
-/// orders of four, the same few for every key, so the strata of different keys' orders would
-/// line up (render/batches.h).
+/// A bijection of [0, n) chosen by key, every order about equally likely: for n ≤ 4 one of the
+/// n! orders drawn by the key; above, rounds of bijections of [0, 2^b) (b bits for n − 1) — xor
+/// and add of key bits, odd multiplies, xor-shifts by small amounts —, cycle-walked into [0, n).
+/// Multiplies and adds alone are affine maps, 8 of the 24 orders of four, the same few for every
+/// key: the strata of different keys' orders would line up (render/batches.h).
 inline uint32_t permute(uint32_t i, uint32_t n, uint64_t key) {
     if (n <= 1) return 0;
+    if (n <= 4) {  // a few strata (the first vertex's groups of 4): one of the n! orders, exactly
+        uint64_t code = mix64(key) >> 32;    // a 32-bit fraction, each pick its leading digit
+        uint32_t items = 0x3210, value = 0;  // the strata left, a nibble each
+        for (uint32_t j = 0; j <= i; ++j) {
+            const uint32_t left = n - j;
+            code *= left;
+            const uint32_t pick = uint32_t(code >> 32);
+            code &= 0xFFFFFFFFu;
+            value = (items >> (4 * pick)) & 0xF;
+            const uint32_t low = items & ((1u << (4 * pick)) - 1);
+            items = low | ((items >> (4 * pick + 4)) << (4 * pick));  // remove nibble `pick`
+        }
+        return value;
+    }
     uint32_t mask = 1;
     while (mask < n - 1) mask = (mask << 1) | 1;
+    const uint64_t k0 = mix64(key), k1 = mix64(~key);
     do {  // each step is a bijection of [0, mask]
-        for (uint64_t round = 0; round < 8; ++round) {
-            const uint64_t k = mix64(key + round);
+        for (int round = 0; round < 8; ++round) {
+            const int r = 8 * round;  // k0 rotated by r bits
+            const uint64_t k =
+                (r ? (k0 >> r | k0 << (64 - r)) : k0) ^ (k1 * (2 * uint64_t(round) + 1));
             i ^= static_cast<uint32_t>(k) & mask;
             i = (i * (static_cast<uint32_t>(k >> 32) | 1u)) & mask;
             i ^= i >> 1;
