@@ -98,21 +98,22 @@ Image neighbour_mean(const Image& in, int block = 0) {
 }
 
 /// The variance of the mean of value (p, c) of `film` from its `active` batches that hold the
-/// pixel's samples (`share`: the pixel's); adds to each of `draws` (may be null) its batch's
-/// scaled squared deviation, whose expectation is that variance (one draw of the squared error
-/// of an image), times `weight`.
+/// pixel's samples (`share`: the pixel's); sets each of `draws` (one per active batch) to its
+/// batch's scaled squared deviation, whose expectation is that variance (one draw of the squared
+/// error of an image).
 double pixel_variance(const Film& film, const std::vector<int>& active,
-                      const std::array<double, kBatches>& share, size_t p, int c, double weight,
-                      double* draws) {
+                      const std::array<double, kBatches>& share, size_t p, int c,
+                      std::array<double, kBatches>* draws) {
     double v = 0.0;
     int held = 0;
     const double x = film.beauty.pixels[p][c];
     for (size_t i = 0; i < active.size(); ++i) {
         const double s = share[size_t(active[i])];
+        (*draws)[i] = 0.0;
         if (!(s > 0.0)) continue;
         const double d = double(film.batches[size_t(active[i])].pixels[p][c]) - x;
         v += s * d * d;
-        if (draws) draws[i] += d * d * s / (1.0 - s) * weight;
+        (*draws)[i] = d * d * s / (1.0 - s);
         ++held;
     }
     return held > 1 ? v / double(held - 1) : 0.0;
@@ -128,24 +129,16 @@ double pixel_variance(const Film& film, const std::vector<int>& active,
 /// then the mean), so fireflies still weigh by their neighbours.
 struct Weights {
     static constexpr double kOwnFloor = 3.0;
-    Image a, b, own;
+    const Image& x;
+    Image a, b;
     Weights(const Film& film, const std::vector<int>& active)
-        : a(neighbour_mean(half_mean(film, active, 0))),
-          b(neighbour_mean(half_mean(film, active, 1))),
-          own(film.beauty.width, film.beauty.height) {
-        const bool maps = !film.map_variance.pixels.empty();
-        for (size_t p = 0; p < own.pixels.size(); ++p) {
-            const std::array<double, kBatches> share = film.shares(p);
-            for (int c = 0; c < 3; ++c) {
-                const double v = pixel_variance(film, active, share, p, c, 1.0, nullptr) +
-                                 (maps ? film.map_variance.pixels[p][c] : 0.0);
-                own.pixels[p][c] = float(film.beauty.pixels[p][c] - std::sqrt(std::max(v, 0.0)));
-            }
-        }
-    }
-    double operator()(size_t p, int c) const {
+        : x(film.beauty),
+          a(neighbour_mean(half_mean(film, active, 0))),
+          b(neighbour_mean(half_mean(film, active, 1))) {}
+    /// The weight of value (p, c), whose variance of the mean (batches and maps) is `variance`.
+    double operator()(size_t p, int c, double variance) const {
         double y2 = std::max(double(a.pixels[p][c]) * b.pixels[p][c], 0.0);
-        const double bound = own.pixels[p][c];
+        const double bound = x.pixels[p][c] - std::sqrt(std::max(variance, 0.0));
         if (bound > kOwnFloor * std::sqrt(y2)) y2 = bound * bound;
         return relative_squared_error(1.0, std::sqrt(y2));
     }
@@ -202,7 +195,8 @@ struct BiasSum {
 /// block, bias² the mean of the two products of halves that differ in samples and in photons.
 /// The two are independent given the bias (no factor shared), so per block their mean varies
 /// as a quarter of their squared difference does; blocks are independent.
-BiasSum bias_sum(const Film& film, const Weights& weight) {
+/// `variance`: each value's variance of the mean (the weights' own bound).
+BiasSum bias_sum(const Film& film, const Weights& weight, const Image& variance) {
     BiasSum out;
     out.valid = film.bias_halves.size() == 4;
     if (!out.valid) return out;
@@ -217,8 +211,9 @@ BiasSum bias_sum(const Film& film, const Weights& weight) {
             auto& block = blocks[size_t(py / kBiasBlock) * bx + px / kBiasBlock];
             for (int c = 0; c < 3; ++c) {
                 const auto at = [&](int i) { return double(h[size_t(i)].pixels[p][c]); };
-                block[0] += at(0) * at(3) * weight(p, c);
-                block[1] += at(1) * at(2) * weight(p, c);
+                const double w = weight(p, c, variance.pixels[p][c]);
+                block[0] += at(0) * at(3) * w;
+                block[1] += at(1) * at(2) * w;
             }
         }
     for (const auto& [a, b] : blocks) {
@@ -249,9 +244,12 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
             double* const block = &draws[b * k];
             const std::array<double, kBatches> share = film.shares(p);
             for (int c = 0; c < 3; ++c) {
-                const double w = weight(p, c), m = map_part ? film.map_variance.pixels[p][c] : 0.0;
-                const double v = pixel_variance(film, active, share, p, c, w, block) + m;
+                std::array<double, kBatches> g{};
+                const double m = map_part ? film.map_variance.pixels[p][c] : 0.0;
+                const double v = pixel_variance(film, active, share, p, c, &g) + m;
                 e->variance.pixels[p][c] = float(std::max(v, 0.0));
+                const double w = weight(p, c, e->variance.pixels[p][c]);
+                for (size_t i = 0; i < k; ++i) block[i] += g[i] * w;
                 parts[p] += v * w;
                 gauss[b] += 2.0 * (v * w) * (v * w);
                 if (map_part) maps[b].add(m * w);
@@ -275,7 +273,7 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
         const double half = kZ95 * std::sqrt(variance);
         return Interval{sum / values, std::max(0.0, (sum - half) / values), (sum + half) / values};
     };
-    const BiasSum bias = bias_sum(film, weight);
+    const BiasSum bias = bias_sum(film, weight, e->variance);
     e->bias_valid = bias.valid;
     e->rel_mse = interval(total + bias.sum, var * (1.0 + a2) + bias.variance);
     e->bias2 = interval(bias.sum, bias.variance);

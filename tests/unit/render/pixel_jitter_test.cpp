@@ -142,20 +142,33 @@ double coverage(const Vec2& n, float c) {
     return double(inside) / (double(kGrid) * kGrid);
 }
 
+/// A straight edge through a pixel, n·p < c inside, at a random angle and within ±offset / 2 of
+/// the pixel's centre, with its exact coverage.
+struct Edge {
+    Vec2 n;
+    float c;
+    double exact;
+};
+Edge random_edge(Rng& rng, float offset) {
+    const float a = kTwoPi * rng.uniform();
+    const Vec2 n(std::cos(a), std::sin(a));
+    const float c = glm::dot(n, Vec2(0.5f)) + offset * (rng.uniform() - 0.5f);
+    return {n, c, coverage(n, c)};
+}
+
+uint64_t random_key(Rng& rng) { return (uint64_t(rng.next_u32()) << 32) | rng.next_u32(); }
+
 TEST(PixelJitter, EdgesCostLessErrorThanIndependentPositions) {
     constexpr int kSpp = 16, kEdges = 40, kPixels = 400;
     Rng rng(7, 3);
     double mse_rooks = 0.0, mse_random = 0.0;
     for (int e = 0; e < kEdges; ++e) {
-        const float a = kTwoPi * rng.uniform();
-        const Vec2 n(std::cos(a), std::sin(a));
-        const float c = glm::dot(n, Vec2(0.5f)) + 0.3f * (rng.uniform() - 0.5f);
-        const double exact = coverage(n, c);
+        const auto [n, c, exact] = random_edge(rng, 0.3f);
         for (int p = 0; p < kPixels; ++p) {
-            const uint64_t key = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
+            const uint64_t key = random_key(rng);
             int rooks = 0, random = 0;
-            for (const Vec2& p : pass_positions(0, kSpp, 1, key, rng)) {
-                rooks += glm::dot(n, p) < c;
+            for (const Vec2& pos : pass_positions(0, kSpp, 1, key, rng)) {
+                rooks += glm::dot(n, pos) < c;
                 random += glm::dot(n, Vec2(rng.uniform(), rng.uniform())) < c;
             }
             mse_rooks += std::pow(rooks / double(kSpp) - exact, 2);
@@ -182,12 +195,9 @@ TEST(PixelJitter, TheBatchesSpreadSaysTheSquaredErrorOfThePassMean) {
         const std::array<int, kBatches> counts = batch_counts(0, set.spp, set.unit);
         double truth = 0.0, estimate = 0.0, strips = 0.0;
         for (int e = 0; e < kEdges; ++e) {
-            const float a = kTwoPi * rng.uniform();
-            const Vec2 n(std::cos(a), std::sin(a));
-            const float c = glm::dot(n, Vec2(0.5f)) + 0.6f * (rng.uniform() - 0.5f);
-            const double exact = coverage(n, c);
+            const auto [n, c, exact] = random_edge(rng, 0.6f);
             for (int p = 0; p < kPixels; ++p) {
-                const uint64_t key = (uint64_t(rng.next_u32()) << 32) | rng.next_u32();
+                const uint64_t key = random_key(rng);
                 const std::vector<Vec2> pos = pass_positions(0, set.spp, set.unit, key, rng);
                 // The same samples with the old strips: column s, the rows as drawn.
                 const auto spread = [&](auto&& inside) {
@@ -273,11 +283,14 @@ TEST(MapWeight, EverySampleIsChosenWithProbabilityOneOverStep) {
                 ++chosen[s];
             }
             for (size_t b = 0; b < in_block.size(); ++b) {
-                if ((b + 1) * step <= size_t(spp)) ASSERT_EQ(in_block[b], 1) << "block " << b;
+                if ((b + 1) * step <= size_t(spp)) {
+                    ASSERT_EQ(in_block[b], 1) << "block " << b;
+                }
                 ASSERT_LE(in_block[b], 1) << "block " << b;
             }
-            if (spp == 64 && map_spp == 4)
+            if (spp == 64 && map_spp == 4) {
                 for (int q = 0; q < 4; ++q) ASSERT_EQ(quarters[size_t(q)], 1) << "quarter " << q;
+            }
         }
         const double q = 1.0 / step, sd = std::sqrt(kPixels * q * (1.0 - q));
         for (int s = 0; s < spp; ++s) EXPECT_NEAR(chosen[s], kPixels * q, 5.0 * sd + 1e-9) << s;
