@@ -95,9 +95,9 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     // PNG's 8-bit RGB and its encoding.
     const double films = pixels * sizeof(Color) * layers * 2;
     // Adaptive sampling's first-pass figures and allocation (render/adaptive.cpp): 56 bytes a
-    // pixel at most.
+    // pixel at most. The error estimate's weights (render/error_estimate.cpp): 9 images at most.
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) +
-                          pixels * 2 * sizeof(Color) + pixels * 6 +
+                          pixels * (2 + 9) * sizeof(Color) + pixels * 6 +
                           (desc.render.adaptive ? pixels * 56.0 : 0.0);
     // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 48 more
     // per volume photon, photon beams about 200 (1.5 beams per photon measured on smoke.json,

@@ -43,8 +43,9 @@ struct ErrorEstimate {
 inline constexpr double kTailPixels = 0.001;
 inline constexpr double kTailShare = 0.5;
 
-/// The estimate from `film`'s beauty, batches and batch shares.
-ErrorEstimate estimate_error(const Film& film);
+/// The estimate from `film`'s beauty, batches and batch shares; `spp`: the samples every pixel of
+/// the film holds (Film::pixel_spp's own under adaptive sampling).
+ErrorEstimate estimate_error(const Film& film, int spp);
 
 /// Whether `e` meets a target relMSE: valid, and its 95% upper bound at most `target`.
 inline bool meets_target(const ErrorEstimate& e, double target) {

@@ -246,7 +246,7 @@ void RunEnd::estimate(Film* film, Report* report) const {
     if (silent) return;  // auto's pilot runs
     const Timer timer;
     const bool progressive = setup.progressive;
-    ErrorEstimate e = estimate_error(*film);
+    ErrorEstimate e = estimate_error(*film, report->spp);
     ErrorReport& r = report->error;
     r.valid = e.valid;
     r.why = progressive ? "needs at least 2 iterations" : "needs at least 2 samples per pixel";
@@ -634,7 +634,8 @@ bool RunLoop::target_reached() {
     gather_to_root();
     bool reached = false;
     if (root_) {
-        const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)));
+        const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)),
+                                               desc_.render.spp * int(counts_.iterations));
         reached = meets_target(e, desc_.progressive.target_relmse);
         if (!quiet_)
             std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n",

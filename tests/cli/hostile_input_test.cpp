@@ -211,16 +211,16 @@ TEST_F(HostileInput, BenchCountsItsRunsBeforeAnyWork) {
 
 TEST_F(HostileInput, ImageMemoryIsEstimatedBeforeRendering) {
     // 16384^2 pixels x ((beauty, 6 layers, 8 batches, the maps' variance and 4 bias halves) x 2
-    // films x 12 bytes + the variance and samples layers' 2 x 12 + 6 bytes of PNG) = 130560 MB of
-    // images; under an 8 GB address-space limit the run is refused with that estimate, before the
-    // work.
+    // films x 12 bytes + the variance and samples layers' 2 x 12 + the error estimate's 9 x 12 +
+    // 6 bytes of PNG) = 158208 MB of images; under an 8 GB address-space limit the run is refused
+    // with that estimate, before the work.
     const double images_mb =
-        16384.0 * 16384.0 * ((7 + 8 + 1 + 4) * 2 * 12 + 2 * 12 + 6) / (1 << 20);
-    ASSERT_EQ(images_mb, 130560.0);
+        16384.0 * 16384.0 * ((7 + 8 + 1 + 4) * 2 * 12 + (2 + 9) * 12 + 6) / (1 << 20);
+    ASSERT_EQ(images_mb, 158208.0);
     const RunResult r = run("render -q " + scene() + " -o " + path("o.exr") +
                                 " --set camera.width=16384 --set camera.height=16384",
                             "ulimit -v 8000000; timeout 60 ");
-    expect_one_error(r, 2, {"/camera/width", "16384 x 16384", "images 130560 MB", "available"});
+    expect_one_error(r, 2, {"/camera/width", "16384 x 16384", "images 158208 MB", "available"});
 }
 
 TEST_F(HostileInput, AGridTooBigForTheMemoryIsRefusedFromItsMetadataBeforeItIsRead) {
@@ -249,9 +249,10 @@ TEST_F(HostileInput, AGridTooBigForTheMemoryIsRefusedFromItsMetadataBeforeItIsRe
 TEST_F(HostileInput, ADryRunPredictsThePeakWithoutRenderingOrWriting) {
     // scenes/smoke.json (480 x 270, paths ending in the volume map): images of (beauty, 6 layers,
     // 8 batches, the maps' variance, 4 bias halves) x 2 films x 12 bytes, the variance and samples
-    // layers' 2 x 12, the PNG's 6 bytes and adaptive sampling's 56 bytes a pixel: 72.2 MB, said
-    // rounded up.
-    const double images = 480.0 * 270.0 * ((7 + 8 + 1 + 4) * 2 * 12 + 2 * 12 + 6 + 56) / (1 << 20);
+    // layers' 2 x 12, the error estimate's 9 x 12, the PNG's 6 bytes and adaptive sampling's 56
+    // bytes a pixel: 83.3 MB, said rounded up.
+    const double images =
+        480.0 * 270.0 * ((7 + 8 + 1 + 4) * 2 * 12 + (2 + 9) * 12 + 6 + 56) / (1 << 20);
     const RunResult r = run("render " + std::string(FOGMAP_SOURCE_DIR) +
                             "/scenes/smoke.json --dry-run -o " + path("o.exr"));
     ASSERT_EQ(r.code, 0) << r.err;

@@ -186,7 +186,7 @@ TEST(Adaptive, TheEstimateOfAnAdaptiveFilmIsItsVarianceOverItsOwnSamples) {
     constexpr int kSeeds = 20;
     for (int seed = 1; seed <= kSeeds; ++seed) {
         const Film film = render(uint64_t(100 + seed));
-        const ErrorEstimate e = estimate_error(film);
+        const ErrorEstimate e = estimate_error(film, kSpp);
         ASSERT_TRUE(e.valid);
         double expected = 0.0, truth = 0.0;
         for (int y = 0; y < kH; ++y)

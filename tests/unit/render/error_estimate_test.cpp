@@ -20,12 +20,29 @@ namespace {
 
 constexpr int kW = 64, kH = 48;
 
-/// A smooth image with a black band (relMSE's floor) on the left.
-Image truth() {
+/// A smooth image (of no curvature: a neighbourhood's mean is its centre's) with, unless
+/// `smooth`, a black band (relMSE's floor) on the left.
+Image truth(bool smooth = false) {
     Image y(kW, kH);
     for (int py = 0; py < kH; ++py)
         for (int px = 0; px < kW; ++px) {
-            const float v = px < 8 ? 0.0f : 0.2f + 0.8f * float(px) / kW * float(py + 8) / kH;
+            const float v =
+                px < 8 && !smooth ? 0.0f : 0.2f + 0.8f * float(px) / kW * float(py + 8) / kH;
+            y.at(px, py) = Color(v, 0.5f * v, 2.0f * v);
+        }
+    return y;
+}
+
+/// Two round bumps of 4 pixels' deviation over a dim ground: curvature throughout.
+Image bumps() {
+    Image y(kW, kH);
+    for (int py = 0; py < kH; ++py)
+        for (int px = 0; px < kW; ++px) {
+            const auto bump = [&](float cx, float cy) {
+                const float dx = float(px) - cx, dy = float(py) - cy;
+                return std::exp(-(dx * dx + dy * dy) / 32.0f);
+            };
+            const float v = 0.05f + bump(20.0f, 20.0f) + 0.6f * bump(44.0f, 28.0f);
             y.at(px, py) = Color(v, 0.5f * v, 2.0f * v);
         }
     return y;
@@ -39,16 +56,16 @@ float normal(Rng& rng) {
     return std::sqrt(-2.0f * std::log(u)) * std::cos(6.2831853f * v);
 }
 
-/// The film of `spp` samples y + sigma·N(0, 1) a value, sample s in batch s mod kBatches;
+/// The film of `spp` samples y + noise·sigma·N(0, 1) a value, sample s in batch s mod kBatches;
 /// `sample` may change a sample (pixel p, sample s, channel value) before it is added.
 Film noisy_film(const Image& y, int spp, uint64_t seed,
-                const std::function<float(size_t, int, float)>& sample = {}) {
+                const std::function<float(size_t, int, float)>& sample = {}, float noise = 1.0f) {
     Film film(kW, kH, false);
     std::array<int, kBatches> n{};
     for (int s = 0; s < spp; ++s) ++n[size_t(s % kBatches)];
     for (int b = 0; b < kBatches; ++b) film.batch_share[size_t(b)] = double(n[size_t(b)]) / spp;
     for (size_t p = 0; p < y.pixels.size(); ++p) {
-        const float sd = sigma(int(p % kW), int(p / kW));
+        const float sd = noise * sigma(int(p % kW), int(p / kW));
         for (int s = 0; s < spp; ++s) {
             Rng rng(seed, p, uint64_t(s));
             for (int c = 0; c < 3; ++c) {
@@ -63,12 +80,12 @@ Film noisy_film(const Image& y, int spp, uint64_t seed,
     return film;
 }
 
-/// The expected relMSE of such a film: sigma² / spp over y² + floor, averaged.
-double analytic_rel_mse(const Image& y, int spp) {
+/// The expected relMSE of such a film: (noise sigma)² / spp over y² + floor, averaged.
+double analytic_rel_mse(const Image& y, int spp, double noise = 1.0) {
     double sum = 0.0;
     for (size_t p = 0; p < y.pixels.size(); ++p)
         for (int c = 0; c < 3; ++c) {
-            const double sd = sigma(int(p % kW), int(p / kW));
+            const double sd = noise * sigma(int(p % kW), int(p / kW));
             sum += relative_squared_error(sd * sd / spp, y.pixels[p][c]);
         }
     return sum / (3.0 * double(y.pixels.size()));
@@ -79,14 +96,13 @@ struct Calibration {
     double median_ratio = 0.0;  ///< estimate / analytic expectation
 };
 
-Calibration calibrate(int spp, int runs) {
-    const Image y = truth();
-    const double expected = analytic_rel_mse(y, spp);
+Calibration calibrate(const Image& y, int spp, int runs, float noise = 1.0f) {
+    const double expected = analytic_rel_mse(y, spp, noise);
     Calibration c;
     std::vector<double> ratios;
     for (int seed = 1; seed <= runs; ++seed) {
-        const Film film = noisy_film(y, spp, uint64_t(seed));
-        const ErrorEstimate e = estimate_error(film);
+        const Film film = noisy_film(y, spp, uint64_t(seed), {}, noise);
+        const ErrorEstimate e = estimate_error(film, spp);
         EXPECT_TRUE(e.valid);
         const double truth_now = image_error(film.beauty, y).rel_mse;
         c.covered += e.rel_mse.lo <= truth_now && truth_now <= e.rel_mse.hi;
@@ -99,30 +115,56 @@ Calibration calibrate(int spp, int runs) {
 }
 
 TEST(ErrorEstimate, MatchesTheAnalyticErrorAndItsIntervalHoldsTheTrueOne) {
-    // 16 spp: 8 batches of 2; 12 spp: batches of 2 and of 1 (shares 2/12 and 1/12).
+    // 16 spp: 8 batches of 2; 12 spp: batches of 2 and of 1 (shares 2/12 and 1/12). The smooth
+    // image's y² from 5 x 5 neighbours has no bias but its noise's, which the weight takes out
+    // (without that, 1.026 and 1.025 of the expectation). Over 120 seeds the interval held the
+    // truth in 114 and 115; in 90% here, the calibration study's bar.
     for (int spp : {16, 12}) {
-        const Calibration c = calibrate(spp, 30);
-        EXPECT_GE(c.covered, 27) << spp << " spp: the 95% interval held the true error in "
+        const Calibration c = calibrate(truth(true), spp, 60);
+        EXPECT_GE(c.covered, 54) << spp << " spp: the 95% interval held the true error in "
                                  << c.covered << " of " << c.runs;
-        EXPECT_NEAR(c.median_ratio, 1.0, 0.08) << spp << " spp";
+        EXPECT_NEAR(c.median_ratio, 1.0, 0.02) << spp << " spp";
         std::printf(
             "%d spp: interval held the true error %d / %d, median estimate / expected %.3f\n", spp,
             c.covered, c.runs, c.median_ratio);
     }
 }
 
+// The black band's edge: its neighbours' means mix the band and the image, so the columns beside
+// it weigh wrongly (0.97-0.98 of the expectation here at 12-16 spp, where 5 x 5 means serve).
+TEST(ErrorEstimate, AHardEdgeBiasesTheEstimateByAFewPercent) {
+    for (int spp : {16, 12}) {
+        const Calibration c = calibrate(truth(), spp, 30);
+        EXPECT_NEAR(c.median_ratio, 1.0, 0.05) << spp << " spp";
+        std::printf("%d spp with the band: median estimate / expected %.3f\n", spp, c.median_ratio);
+    }
+}
+
+// From kExtrapolateSpp samples y comes from the 3 x 3 and 5 x 5 means extrapolated (Richardson in
+// the square's extent) where that is precise enough: on curved light of little noise (a tenth of
+// the other tests') the 5 x 5 means alone put the estimate 0.96-0.97 of the expectation here, and
+// their interval held the truth in 15-16 of 20.
+TEST(ErrorEstimate, OnCurvedLightTheNeighboursMeansAreExtrapolated) {
+    for (int spp : {32, 64}) {
+        const Calibration c = calibrate(bumps(), spp, 20, 0.1f);
+        EXPECT_GE(c.covered, 18) << spp << " spp: " << c.covered << " of " << c.runs;
+        EXPECT_NEAR(c.median_ratio, 1.0, 0.03) << spp << " spp";
+        std::printf("%d spp on bumps: interval held the true error %d / %d, median ratio %.3f\n",
+                    spp, c.covered, c.runs, c.median_ratio);
+    }
+}
+
 TEST(ErrorEstimate, TwoBatchesAreEnoughAndOneIsNot) {
     const Image y = truth();
-    const ErrorEstimate two = estimate_error(noisy_film(y, 2, 7));
+    const ErrorEstimate two = estimate_error(noisy_film(y, 2, 7), 2);
     EXPECT_TRUE(two.valid);
     EXPECT_EQ(two.batches, 2);
-    // Within [1, 1.3]: at 2 spp y² comes from halves of one sample each, noisy enough for 1 / y²
-    // to come out high on average (the estimate errs high).
+    // At 2 spp y² comes from halves of one sample each, whose noise the weight takes out to first
+    // order only (0.94 here; 1.30 before it did).
     const double ratio = two.rel_mse.value / analytic_rel_mse(y, 2);
-    EXPECT_GE(ratio, 1.0);
-    EXPECT_LE(ratio, 1.3);
+    EXPECT_NEAR(ratio, 1.0, 0.15);
     EXPECT_LT(two.rel_mse.lo, two.rel_mse.value);  // an interval, though batches deviate alike
-    const ErrorEstimate one = estimate_error(noisy_film(y, 1, 7));
+    const ErrorEstimate one = estimate_error(noisy_film(y, 1, 7), 1);
     EXPECT_FALSE(one.valid);
     EXPECT_EQ(one.batches, 1);
 }
@@ -130,7 +172,7 @@ TEST(ErrorEstimate, TwoBatchesAreEnoughAndOneIsNot) {
 TEST(ErrorEstimate, VarianceLayerIsEachPixelsVarianceOfTheMean) {
     // Averaged over the square's 400 pixels and 3 channels, 0.5² / 16.
     const Film film = noisy_film(truth(), 16, 3);
-    const ErrorEstimate e = estimate_error(film);
+    const ErrorEstimate e = estimate_error(film, 16);
     double sum = 0.0;
     for (int py = 10; py < 30; ++py)
         for (int px = 20; px < 40; ++px)
@@ -140,13 +182,13 @@ TEST(ErrorEstimate, VarianceLayerIsEachPixelsVarianceOfTheMean) {
 
 TEST(ErrorEstimate, APlantedFireflyRaisesTheTailFlag) {
     const Image y = truth();
-    const ErrorEstimate plain = estimate_error(noisy_film(y, 16, 5));
+    const ErrorEstimate plain = estimate_error(noisy_film(y, 16, 5), 16);
     EXPECT_FALSE(plain.tail) << plain.tail_share;
     // One sample of one pixel 10^4 times brighter.
     const Film fly = noisy_film(y, 16, 5, [](size_t p, int s, float v) {
         return p == size_t(30 * kW + 50) && s == 3 ? v * 1e4f : v;
     });
-    const ErrorEstimate flagged = estimate_error(fly);
+    const ErrorEstimate flagged = estimate_error(fly, 16);
     EXPECT_TRUE(flagged.tail) << flagged.tail_share;
     EXPECT_GT(flagged.rel_mse.hi, plain.rel_mse.hi);
 }
@@ -230,13 +272,13 @@ TEST(ErrorEstimate, OneMapsNoiseSharedByEverySampleIsInTheEstimate) {
         std::vector<double> ratios, without, map_parts;
         for (int seed = 1; seed <= 20; ++seed) {
             Film film = shared_map_film(y, spp, uint64_t(seed));
-            const ErrorEstimate e = estimate_error(film);
+            const ErrorEstimate e = estimate_error(film, spp);
             const double truth_now = image_error(film.beauty, y).rel_mse;
             covered += truth_now <= e.rel_mse.hi;
             ratios.push_back(e.rel_mse.value / expected);
             map_parts.push_back(map_part(film, y));
             film.map_variance = Image();  // the batches of samples alone
-            without.push_back(estimate_error(film).rel_mse.value / expected);
+            without.push_back(estimate_error(film, spp).rel_mse.value / expected);
         }
         std::sort(ratios.begin(), ratios.end());
         std::sort(without.begin(), without.end());
@@ -280,11 +322,11 @@ TEST(ErrorEstimate, TheBiasPartIsTheSquareOfTheBiasTheHalvesShare) {
     int held = 0, zero_held = 0;
     std::vector<double> ratios;
     for (int seed = 1; seed <= 20; ++seed) {
-        const ErrorEstimate e = estimate_error(biased_film(y, 1.0f, uint64_t(seed)));
+        const ErrorEstimate e = estimate_error(biased_film(y, 1.0f, uint64_t(seed)), 16);
         ASSERT_TRUE(e.bias_valid);
         ratios.push_back(e.bias2.value / expected);
         held += e.bias2.lo <= expected && expected <= e.bias2.hi;
-        zero_held += estimate_error(biased_film(y, 0.0f, uint64_t(seed))).bias2.lo == 0.0;
+        zero_held += estimate_error(biased_film(y, 0.0f, uint64_t(seed)), 16).bias2.lo == 0.0;
     }
     std::sort(ratios.begin(), ratios.end());
     std::printf(
