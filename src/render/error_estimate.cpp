@@ -145,13 +145,14 @@ struct Denominator {
     double y2 = 0.0, noise = 0.0;
     Denominator(double a, double b, double sum_c2d)
         : y2(std::max(a * b, 0.0)), noise((a * a + b * b) * 0.5 * sum_c2d) {}
-    /// 1 / (y² + floor), less its noise's part: a noisy y² of expectation μ gives 1 / (y² + f)
-    /// an expectation of about 1 / (μ + f) + var / (μ + f)³, which 1 / (q + var / q) takes out
-    /// (q = y² + f), staying positive.
+    /// var / (y² + floor)²: how much of itself the denominator varies by.
     double relative_noise() const {
         const double q = y2 + kRelMseFloor;
         return noise / (q * q);
     }
+    /// 1 / (y² + floor), less its noise's part: a noisy y² of expectation μ gives 1 / (y² + f)
+    /// an expectation of about 1 / (μ + f) + var / (μ + f)³, which 1 / (q + var / q) takes out
+    /// (q = y² + f), staying positive.
     double weight() const {
         const double q = y2 + kRelMseFloor;
         return 1.0 / (q + noise / q);
