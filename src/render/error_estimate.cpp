@@ -64,17 +64,21 @@ Image half_mean(const Film& film, const std::vector<int>& active, size_t parity)
     return out;
 }
 
+/// The window along one axis about c within `radius`, clipped to [0, n) and, for `block` > 0, to
+/// c's block of that many.
+void axis_window(int c, int n, int radius, int block, int* lo, int* hi) {
+    const int start = block > 0 ? c / block * block : 0, end = block > 0 ? start + block : n;
+    *lo = std::max(start, c - radius);
+    *hi = std::min({n, end, c + radius + 1}) - 1;
+}
+
 /// Each pixel's mean over its neighbours within `radius` pixels (a square less the pixel; fewer
 /// at the edges); `block` > 0: with the pixel, and only those in its block x block block (so that
 /// blocks stay independent). The square's sum by rows, then columns.
 Image neighbour_mean(const Image& in, int radius, int block = 0) {
     const bool with_pixel = block > 0;
-    if (block <= 0) block = std::max(in.width, in.height);
-    // The window along one axis about c, clipped to the image (of n) and to c's block.
     const auto window = [&](int c, int n, int* lo, int* hi) {
-        const int start = c / block * block;
-        *lo = std::max(start, c - radius);
-        *hi = std::min({n - 1, start + block - 1, c + radius});
+        axis_window(c, n, radius, block, lo, hi);
     };
     Image rows(in.width, in.height), out(in.width, in.height);
     for (int y = 0; y < in.height; ++y)
@@ -124,11 +128,13 @@ double pixel_variance(const Film& film, const std::vector<int>& active,
     return held > 1 ? v / double(held - 1) : 0.0;
 }
 
-/// The pixels of a square of `radius` about (x, y) less the pixel, clipped to a w x h image.
+/// The pixels of a square of `radius` about (x, y) less the pixel, clipped to a w x h image: the
+/// count neighbour_mean divides by.
 int ring_count(int x, int y, int w, int h, int radius) {
-    return (std::min(w - 1, x + radius) - std::max(0, x - radius) + 1) *
-               (std::min(h - 1, y + radius) - std::max(0, y - radius) + 1) -
-           1;
+    int x_lo, x_hi, y_lo, y_hi;
+    axis_window(x, w, radius, 0, &x_lo, &x_hi);
+    axis_window(y, h, radius, 0, &y_lo, &y_hi);
+    return (x_hi - x_lo + 1) * (y_hi - y_lo + 1) - 1;
 }
 
 /// The per-axis second moment of a square of `radius` less its centre: its mean of dx².

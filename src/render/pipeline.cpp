@@ -203,6 +203,13 @@ private:
     void estimate(Film* film, Report* report) const;
 };
 
+/// The samples every pixel of a run's film holds after `iterations`: render.spp each where
+/// iterations are summed into one film (progressive), else render.spp (the ranks of a plain run
+/// count one iteration each).
+int run_spp(const SceneDesc& run, bool progressive, int iterations) {
+    return run.render.spp * (progressive ? iterations : 1);
+}
+
 /// The report's counts, its warnings of cut and dropped samples, its figures, the estimate.
 void RunEnd::finish(Film* film, Report* report) const {
     const SceneDesc& desc = setup.run;
@@ -233,7 +240,7 @@ void RunEnd::finish(Film* film, Report* report) const {
     r.settings = settings_json(setup);
     r.width = film->beauty.width;
     r.height = film->beauty.height;
-    r.spp = desc.render.spp * (setup.progressive ? int(counts.iterations) : 1);
+    r.spp = run_spp(desc, setup.progressive, int(counts.iterations));
     r.photons_capped_power /= std::max(own, 1);  // the mean share over rank 0's iterations
     r.mean = film->beauty.mean();
     estimate(film, report);
@@ -635,7 +642,7 @@ bool RunLoop::target_reached() {
     bool reached = false;
     if (root_) {
         const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)),
-                                               desc_.render.spp * int(counts_.iterations));
+                                               run_spp(desc_, true, int(counts_.iterations)));
         reached = meets_target(e, desc_.progressive.target_relmse);
         if (!quiet_)
             std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n",
