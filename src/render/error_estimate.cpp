@@ -374,6 +374,9 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
     e->rel_mse = interval(total + bias.sum, var * (1.0 + a2) + bias.variance);
     e->bias2 = interval(bias.sum, bias.variance);
     for (double& part : parts) part = std::max(part, 0.0);
+    const size_t top = size_t(std::max_element(parts.begin(), parts.end()) - parts.begin());
+    e->top_x = int(top % size_t(x.width));
+    e->top_y = int(top / size_t(x.width));
     e->tail_share = top_share(std::move(parts));
     e->tail = e->tail_share > kTailShare;
 }

@@ -35,6 +35,7 @@ struct ErrorEstimate {
     Interval bias2;           ///< the relMSE's bias² part (lo >= 0)
     double tail_share = 0.0;  ///< the share of rel_mse the top 0.1% of pixels carry
     bool tail = false;        ///< tail_share above one half
+    int top_x = -1, top_y = -1;  ///< the pixel that carries the largest part of rel_mse (if valid)
     Image variance;           ///< per pixel and channel, the variance of the mean (if valid)
 };
 

@@ -268,6 +268,8 @@ void RunEnd::estimate(Film* film, Report* report) const {
     r.batched_by = progressive ? "iterations" : "samples";
     r.tail_share = e.tail_share;
     r.tail = e.tail;
+    r.top_x = e.top_x;
+    r.top_y = e.top_y;
     r.target = setup.run.progressive.target_relmse;
     r.reached = r.target > 0.0 && meets_target(e, r.target);
     r.iterations = progressive ? int(counts.iterations) : 1;  // ranks of a plain run add 1 each

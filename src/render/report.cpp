@@ -49,9 +49,12 @@ std::string error_text(const ErrorReport& e) {
                                  " iterations: the time budget or the iteration cap ended the "
                                  "run\n");
     if (e.tail)
-        text += "error estimate: the brightest 0.1% of pixels carry " +
-                fixed(100.0 * e.tail_share, 0) +
-                "% of it: fireflies, and more may come that no estimate from samples can see\n";
+        text += "error estimate: 0.1% of the pixels carry " + fixed(100.0 * e.tail_share, 0) +
+                "% of it (the most: pixel (" + std::to_string(e.top_x) + ", " +
+                std::to_string(e.top_y) +
+                ")): fireflies, whose like may come that no estimate from samples can see, or a "
+                "feature a pixel or two wide that its neighbours say too dim (a light seen in a "
+                "medium, a caustic's focus), where the estimate errs high\n";
     return text;
 }
 
@@ -69,6 +72,7 @@ nlohmann::json error_json(const ErrorReport& e) {
             {"batched_by", e.batched_by},
             {"tail_share", e.tail_share},
             {"tail", e.tail},
+            {"top_pixel", {e.top_x, e.top_y}},
             {"excludes", e.excludes},
             {"target", e.target > 0.0 ? nlohmann::json(e.target) : nlohmann::json()},
             {"reached", e.reached},

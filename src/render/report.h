@@ -49,6 +49,7 @@ struct ErrorReport {
     std::string batched_by;                    ///< "samples" (of a pixel) or "iterations"
     double tail_share = 0.0;                   ///< share of it the top 0.1% of pixels carry
     bool tail = false;                         ///< tail_share above one half: fireflies
+    int top_x = -1, top_y = -1;                ///< the pixel that carries the most of it
     std::string excludes;                      ///< the errors it cannot see ("": none known)
     double target = 0.0;                       ///< progressive.target_relmse (0: none)
     bool reached = false;                      ///< hi at most target

@@ -191,6 +191,9 @@ TEST(ErrorEstimate, APlantedFireflyRaisesTheTailFlag) {
     const ErrorEstimate flagged = estimate_error(fly, 16);
     EXPECT_TRUE(flagged.tail) << flagged.tail_share;
     EXPECT_GT(flagged.rel_mse.hi, plain.rel_mse.hi);
+    // The report names the pixel the firefly was planted in.
+    EXPECT_EQ(flagged.top_x, 50);
+    EXPECT_EQ(flagged.top_y, 30);
 }
 
 // One photon map read by every sample (render/film.h, PhotonBatchSums): each pixel's K photon

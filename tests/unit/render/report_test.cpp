@@ -96,6 +96,8 @@ Report hand_built() {
     r.error.batched_by = "samples";
     r.error.tail_share = 0.625;
     r.error.tail = true;
+    r.error.top_x = 7;
+    r.error.top_y = 3;
     r.error.excludes = "the bias";
     return r;
 }
@@ -169,6 +171,7 @@ TEST(Report, JsonCarriesEveryField) {
     EXPECT_EQ(e["batched_by"], "samples");
     EXPECT_EQ(e["tail_share"], 0.625);
     EXPECT_EQ(e["tail"], true);
+    EXPECT_EQ(e["top_pixel"], nlohmann::json({7, 3}));
     EXPECT_EQ(e["excludes"], "the bias");
 }
 
@@ -270,7 +273,7 @@ TEST(Report, TextNamesThePhasesAndEverythingElse) {
                          "samples"))
         << t;
     EXPECT_TRUE(has_line(t, "error estimate: not in it: the bias")) << t;
-    EXPECT_NE(t.find("error estimate: the brightest 0.1% of pixels carry 62% of it"),
+    EXPECT_NE(t.find("error estimate: 0.1% of the pixels carry 62% of it (the most: pixel (7, 3))"),
               std::string::npos)
         << t;
 }
