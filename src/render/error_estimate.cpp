@@ -175,11 +175,12 @@ struct Denominator {
 /// nearest eight by 1.56 and the rest by -0.56, six times the 5 x 5 mean's noise, and from fewer
 /// samples the halves' means are skewed (a few bright samples) and its y² comes out low,
 /// whatever its measured noise says (the Disney cloud's path tracer at 4 spp: 1.27 times the
-/// truth). Except where the pixel's own mean less its standard error is above kOwnFloor times y:
-/// a bright feature of a pixel or two (a spot's apex, a caustic's focus), whose neighbours say
-/// nothing of its scale; there y is that lower bound. A firefly's own bound is about 0 (one batch
-/// holds it, and the mean's standard error is then the mean), so fireflies still weigh by their
-/// neighbours.
+/// truth). Except where the pixel's own y², its mean squared less the mean's variance (without
+/// bias), is above kOwnFloor² times y² + floor: a bright feature of a pixel or two (a spot's apex,
+/// a caustic's focus), whose neighbours say nothing of its scale; there y² is its own. Its samples
+/// may have missed the feature's core, so the upper bound takes the weight by the mean less its
+/// standard error (Weight::upper). A firefly's own y² is about 0 (one batch holds it, and the
+/// mean's variance is then its square), so fireflies still weigh by their neighbours.
 class Weights {
 public:
     /// `spp`: estimate_error's.
@@ -226,10 +227,18 @@ public:
     }
     /// The weight of value (p, c), whose variance of the mean (batches and maps) is `variance`.
     double operator()(size_t p, int c, double variance) const {
-        const double bound = x_.pixels[p][c] - std::sqrt(std::max(variance, 0.0));
-        if (bound > kOwnFloor * std::sqrt(double(y2_.pixels[p][c])))
-            return relative_squared_error(1.0, bound);
-        return weight_.pixels[p][c];
+        return weighs(p, c, variance).value;
+    }
+    /// The weight, and the most it can be by the value's own samples (the same except at a
+    /// bright feature: there by its mean less its standard error, (x − s)² <= x² − s²).
+    struct Weight {
+        double value, upper;
+    };
+    Weight weighs(size_t p, int c, double variance) const {
+        const double x = x_.pixels[p][c], v = std::max(variance, 0.0), bound = x - std::sqrt(v);
+        if (!(bound > kOwnFloor * std::sqrt(double(y2_.pixels[p][c]))))
+            return {weight_.pixels[p][c], weight_.pixels[p][c]};
+        return {1.0 / (x * x - v + kRelMseFloor), relative_squared_error(1.0, bound)};
     }
 
 private:
@@ -333,7 +342,7 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
     std::vector<BlockPart> maps(size_t(bx) * by);
     const bool map_part = !film.map_variance.pixels.empty();
     e->variance = Image(x.width, x.height);
-    double total = 0.0;
+    double total = 0.0, unsure = 0.0;  // unsure: what bright features' upper weights add
     for (int py = 0; py < x.height; ++py)
         for (int px = 0; px < x.width; ++px) {
             const size_t p = size_t(py) * x.width + px, b = size_t(py / kBlock) * bx + px / kBlock;
@@ -344,7 +353,9 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
                 const double m = map_part ? film.map_variance.pixels[p][c] : 0.0;
                 const double v = pixel_variance(film, active, share, p, c, &g) + m;
                 e->variance.pixels[p][c] = float(std::max(v, 0.0));
-                const double w = weight(p, c, e->variance.pixels[p][c]);
+                const Weights::Weight both = weight.weighs(p, c, e->variance.pixels[p][c]);
+                const double w = both.value;
+                unsure += v * (both.upper - w);
                 for (size_t i = 0; i < k; ++i) block[i] += g[i] * w;
                 parts[p] += v * w;
                 gauss[b] += 2.0 * (v * w) * (v * w);
@@ -372,6 +383,7 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
     const BiasSum bias = bias_sum(film, weight, e->variance);
     e->bias_valid = bias.valid;
     e->rel_mse = interval(total + bias.sum, var * (1.0 + a2) + bias.variance);
+    e->rel_mse.hi += std::max(unsure, 0.0) / values;
     e->bias2 = interval(bias.sum, bias.variance);
     for (double& part : parts) part = std::max(part, 0.0);
     const size_t top = size_t(std::max_element(parts.begin(), parts.end()) - parts.begin());

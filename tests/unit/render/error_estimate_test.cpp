@@ -196,6 +196,34 @@ TEST(ErrorEstimate, APlantedFireflyRaisesTheTailFlag) {
     EXPECT_EQ(flagged.top_y, 30);
 }
 
+// A bright feature of one pixel (a caustic's focus): y 20 where its neighbours' is below 1, a
+// sample's deviation 10 there, 16 spp, the rest of the image near noiseless (a hundredth of its
+// noise), so the pixel carries the estimate: its expectation (10² / 16) / (20² + floor) a
+// channel. Weighed by its own y² (x² − s², without bias) the estimate is within 10% of it (1.05);
+// by its mean less its standard error (the rule before) it came out 1.28 times it.
+TEST(ErrorEstimate, ABrightPixelWeighsByItsOwnSamples) {
+    Image y = truth(true);
+    const size_t bright = size_t(30 * kW + 50);
+    y.pixels[bright] = Color(20.0f);
+    const float noise = 0.01f, spread = 10.0f;
+    const auto sample = [&](size_t p, int, float v) {  // the bright pixel's noise scaled to 10
+        return p != bright ? v : 20.0f + (v - 20.0f) * spread / (noise * sigma(50, 30));
+    };
+    const double expected =
+        analytic_rel_mse(y, 16, noise) +
+        (relative_squared_error(spread * spread / 16.0, 20.0) -
+         relative_squared_error(std::pow(noise * sigma(50, 30), 2) / 16.0, 20.0)) /
+            double(y.pixels.size());
+    std::vector<double> ratios;
+    for (uint64_t seed = 1; seed <= 20; ++seed) {
+        const ErrorEstimate e = estimate_error(noisy_film(y, 16, seed, sample, noise), 16);
+        ratios.push_back(e.rel_mse.value / expected);
+    }
+    std::sort(ratios.begin(), ratios.end());
+    std::printf("a bright pixel: median estimate / expected %.3f\n", ratios[10]);
+    EXPECT_NEAR(ratios[10], 1.0, 0.1);
+}
+
 // One photon map read by every sample (render/film.h, PhotonBatchSums): each pixel's K photon
 // batches err by u_t (deviation kMapSd √K, so the whole map's mean error ū has kMapSd), which
 // every sample of the pixel shares, plus w_t a sample of their own (deviation 0.3); a sample is
