@@ -175,12 +175,12 @@ struct Denominator {
 /// nearest eight by 1.56 and the rest by -0.56, six times the 5 x 5 mean's noise, and from fewer
 /// samples the halves' means are skewed (a few bright samples) and its y² comes out low,
 /// whatever its measured noise says (the Disney cloud's path tracer at 4 spp: 1.27 times the
-/// truth). Except where the pixel's own y², its mean squared less the mean's variance (without
-/// bias), is above kOwnFloor² times y² + floor: a bright feature of a pixel or two (a spot's apex,
-/// a caustic's focus), whose neighbours say nothing of its scale; there y² is its own. Its samples
-/// may have missed the feature's core, so the upper bound takes the weight by the mean less its
-/// standard error (Weight::upper). A firefly's own y² is about 0 (one batch holds it, and the
-/// mean's variance is then its square), so fireflies still weigh by their neighbours.
+/// truth). Except where the pixel's own mean less its standard error is above kOwnFloor times y:
+/// a bright feature of a pixel or two (a spot's apex, a caustic's focus), whose neighbours say
+/// nothing of its scale; there y² is its own, its mean squared less the mean's variance (without
+/// bias). Its samples may have missed the feature's core, so the upper bound takes the weight by
+/// that lower bound (Weight::upper). A firefly's own bound is about 0 (one batch holds it, and the
+/// mean's standard error is then the mean), so fireflies still weigh by their neighbours.
 class Weights {
 public:
     /// `spp`: estimate_error's.
