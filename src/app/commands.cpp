@@ -263,9 +263,9 @@ Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::strin
         fnv1a(std::to_string(resumable_fingerprint(setup)) + "\n" + input_stamps(setup.run));
     std::optional<Checkpoint> resume;
     if (args.resume && fs::exists(checkpoint_path))
-        resume =
-            read_checkpoint(checkpoint_path, {fingerprint, desc.camera.width, desc.camera.height,
-                                              /*layered=*/true, kMaxProgressiveIterations});
+        resume = read_checkpoint(
+            checkpoint_path, {fingerprint, desc.camera.width, desc.camera.height,
+                              /*layered=*/true, setup.photon_batches(), kMaxProgressiveIterations});
     Checkpoints checkpoints;
     checkpoints.resume = resume ? &*resume : nullptr;
     checkpoints.every_s = args.checkpoint_every;

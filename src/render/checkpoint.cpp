@@ -14,10 +14,12 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap checkpoint 3\n";
-/// Older formats' first line: "fogmap checkpoint " and their number (1 or 2: 2 had no batches).
+constexpr char kMagic[] = "fogmap checkpoint 4\n";
+/// Older formats' first line: "fogmap checkpoint " and their number (1 to 3: 2 had no batches, 3
+/// no bias halves).
 constexpr char kOldMagic[] = "fogmap checkpoint ";
-constexpr size_t kFields = 6;  ///< fingerprint, iterations, width, height, layered, count count
+/// fingerprint, iterations, width, height, layered, bias halves, count count
+constexpr size_t kFields = 7;
 constexpr uint64_t kMaxCheckpointBytes = uint64_t(1) << 40;  ///< the size check comes later
 
 template <class T>
@@ -27,7 +29,7 @@ void put(std::string* out, const T& v) {
 
 /// The film values of a checkpoint of `shape`'s run: 3 per pixel, per image.
 uint64_t expected_values(const CheckpointShape& shape) {
-    return FixedFilm::value_count(shape.width, shape.height, shape.layered);
+    return FixedFilm::value_count(shape.width, shape.height, shape.layered, shape.bias);
 }
 
 /// The bytes of a checkpoint of `shape`'s run.
@@ -72,14 +74,14 @@ std::string header(const std::string& path) {
     head.resize(size_t(in.gcount()));
     if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return head;
     const size_t old = std::strlen(kOldMagic);
-    for (const char format : {'1', '2'})
+    for (const char format : {'1', '2', '3'})
         if (head.compare(0, old, kOldMagic) == 0 &&
             head.compare(old, 2, std::string{format, '\n'}) == 0)
             throw InputError(path, "format",
                              std::string("written by an older fogmap (format ") + format +
                                  "); remove it to start again");
     throw InputError(path, "format",
-                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 3\")");
+                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 4\")");
 }
 
 /// The fields of a checkpoint of the right size and checksum, each checked against the run.
@@ -95,6 +97,7 @@ Checkpoint parse(const std::string& path, const std::string& bytes, const Checkp
     expect(path, "width", f.next(), shape.width, "camera width");
     expect(path, "height", f.next(), shape.height, "camera height");
     expect(path, "layers", f.next(), shape.layered ? 1 : 0, "layered film (1 = layers)");
+    expect(path, "bias", f.next(), shape.bias ? 1 : 0, "bias halves (1 = kept)");
     expect(path, "counts", f.next(), int64_t(kRunCounts), "number of counts");
     c.counts.resize(kRunCounts);
     for (int64_t& v : c.counts) {
@@ -108,6 +111,7 @@ Checkpoint parse(const std::string& path, const std::string& bytes, const Checkp
     c.sum.width = shape.width;
     c.sum.height = shape.height;
     c.sum.layered = shape.layered;
+    c.sum.bias = shape.bias;
     c.sum.values.resize(size_t(values));
     std::memcpy(c.sum.values.data(), bytes.data() + f.at(), size_t(values) * sizeof(int64_t));
     return c;
@@ -122,6 +126,7 @@ std::string checkpoint_bytes(const Checkpoint& c) {
     put(&out, int64_t(c.sum.width));
     put(&out, int64_t(c.sum.height));
     put(&out, int64_t(c.sum.layered ? 1 : 0));
+    put(&out, int64_t(c.sum.bias ? 1 : 0));
     put(&out, int64_t(c.counts.size()));
     for (int64_t v : c.counts) put(&out, v);
     put(&out, int64_t(c.sum.values.size()));

@@ -30,18 +30,19 @@ struct CheckpointShape {
     uint64_t fingerprint = 0;
     int width = 0, height = 0;  ///< the camera's
     bool layered = false;       ///< the film has layers (the photon gather)
+    bool bias = false;          ///< the sum has bias halves (FixedFilm::bias)
     int max_iterations = 0;     ///< the most iterations a run takes
 };
 
-/// The file's bytes: a header line "fogmap checkpoint 3", the fields little-endian, then the
+/// The file's bytes: a header line "fogmap checkpoint 4", the fields little-endian, then the
 /// FNV-1a checksum of everything before it.
 std::string checkpoint_bytes(const Checkpoint& c);
 
 /// Reads the checkpoint at `path` for a run of `shape`. Throws InputError{path, FIELD, reason}
 /// (FIELD names the checkpoint's field: format, size, fingerprint, checksum, iterations, width,
-/// height, layers, counts, values) when the file is unreadable, a folder, not a checkpoint, of
-/// another size than such a run's, written for another scene, settings or input files, corrupt, or
-/// its fields disagree with the run or each other. Reads at most the size such a run's has.
+/// height, layers, bias, counts, values) when the file is unreadable, a folder, not a checkpoint,
+/// of another size than such a run's, written for another scene, settings or input files, corrupt,
+/// or its fields disagree with the run or each other. Reads at most the size such a run's has.
 Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape);
 
 }  // namespace fogmap

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <vector>
 
 namespace fogmap {
@@ -256,6 +257,19 @@ double sample_variance(const double* g, size_t n) {
     return sum / double(n - 1);
 }
 
+/// Welch–Satterthwaite: the degrees of freedom of a sum of independent variance estimates, each
+/// with its own, (Σ V)² / Σ (V² / ν). A sum that a few blocks carry has about their few.
+struct Satterthwaite {
+    double sum = 0.0, spread = 0.0;
+    void add(double variance, double dof) {
+        sum += variance;
+        spread += variance * variance / dof;
+    }
+    double dof() const {
+        return spread > 0.0 ? sum * sum / spread : std::numeric_limits<double>::infinity();
+    }
+};
+
 /// The share of the sum of `parts` that its largest kTailPixels carry.
 double top_share(std::vector<double> parts) {
     double total = 0.0;
@@ -289,10 +303,11 @@ struct BlockPart {
     double normal() const { return 2.0 * sum * sum; }
 };
 
-/// The bias part: Σ over values of bias² w, and that sum's variance.
+/// The bias part: Σ over values of bias² w, and that sum's variance, block by block.
 struct BiasSum {
     bool valid = false;  ///< the film has bias_halves
-    double sum = 0.0, variance = 0.0;
+    double sum = 0.0;
+    Satterthwaite blocks;
 };
 
 /// From Film::bias_halves (none: zero): each half averaged over 5 x 5 within its kBiasBlock
@@ -323,7 +338,7 @@ BiasSum bias_sum(const Film& film, const Weights& weight, const Image& variance)
         }
     for (const auto& [a, b] : blocks) {
         out.sum += 0.5 * (a + b);
-        out.variance += 0.25 * (a - b) * (a - b);
+        out.blocks.add(0.25 * (a - b) * (a - b), 1.0);
     }
     return out;
 }
@@ -338,7 +353,7 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
     std::vector<double> draws(size_t(bx) * by * k, 0.0), parts(x.pixels.size(), 0.0);
     // Per block, the variance of one draw were the values normal: 2 (v w)² a value. A floor under
     // the draws' spread, and alone where they cannot tell (two batches deviate alike).
-    std::vector<double> gauss(size_t(bx) * by, 0.0);
+    std::vector<double> gauss(size_t(bx) * by, 0.0), gauss_squares(gauss.size(), 0.0);
     std::vector<BlockPart> maps(size_t(bx) * by);
     const bool map_part = !film.map_variance.pixels.empty();
     e->variance = Image(x.width, x.height);
@@ -358,7 +373,9 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
                 unsure += v * (both.upper - w);
                 for (size_t i = 0; i < k; ++i) block[i] += g[i] * w;
                 parts[p] += v * w;
-                gauss[b] += 2.0 * (v * w) * (v * w);
+                const double normal = 2.0 * (v * w) * (v * w);
+                gauss[b] += normal;
+                gauss_squares[b] += normal * normal;
                 if (map_part) maps[b].add(m * w);
             }
             total += parts[p];
@@ -367,24 +384,35 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
     // times k / (k − 1) as the draws deviate from the batches' own mean (for normal values and
     // equal shares, var(G) / (k − 1): the sample variance's 2 v² / (k − 1)); this image's error
     // is one more draw.
-    double a2 = 0.0, var = 0.0;
+    // Each block's variance is measured from its k draws (k − 1 degrees of freedom; also where
+    // the normal model's floor is above their spread, which heavy tails make no surer), or with
+    // two batches from the normal model alone, from its values' variances (one each, their
+    // Welch–Satterthwaite sum's); each bias block's from its two products (one): the quantile is
+    // Student's t at the sum's degrees of freedom.
+    double a2 = 0.0;
     for (int i : active) a2 += std::pow((1.0 - shares[size_t(i)]) / double(k - 1), 2);
     a2 *= double(k) / double(k - 1);
+    const BiasSum bias = bias_sum(film, weight, e->variance);
+    Satterthwaite all = bias.blocks;
     for (size_t t = 0; t < draws.size(); t += k) {
-        const BlockPart& m = maps[t / k];
-        var += std::max(k > 2 ? sample_variance(&draws[t], k) : 0.0, gauss[t / k]) + m.normal() +
-               m.spread();
+        const size_t b = t / k;
+        const double spread = k > 2 ? sample_variance(&draws[t], k) : 0.0;
+        const double dof = k > 2 || !(gauss_squares[b] > 0.0)
+                               ? double(k - 1)
+                               : gauss[b] * gauss[b] / gauss_squares[b];
+        all.add((std::max(spread, gauss[b]) + maps[b].normal() + maps[b].spread()) * (1.0 + a2),
+                dof);
     }
     const double values = 3.0 * double(x.pixels.size());
-    const auto interval = [&](double sum, double variance) {
-        const double half = kZ95 * std::sqrt(variance);
+    const auto interval = [&](double sum, const Satterthwaite& variance) {
+        const double half = student_t95(variance.dof()) * std::sqrt(variance.sum);
         return Interval{sum / values, std::max(0.0, (sum - half) / values), (sum + half) / values};
     };
-    const BiasSum bias = bias_sum(film, weight, e->variance);
     e->bias_valid = bias.valid;
-    e->rel_mse = interval(total + bias.sum, var * (1.0 + a2) + bias.variance);
+    e->rel_mse = interval(total + bias.sum, all);
     e->rel_mse.hi += std::max(unsure, 0.0) / values;
-    e->bias2 = interval(bias.sum, bias.variance);
+    e->dof = all.dof();
+    e->bias2 = interval(bias.sum, bias.blocks);
     for (double& part : parts) part = std::max(part, 0.0);
     const size_t top = size_t(std::max_element(parts.begin(), parts.end()) - parts.begin());
     e->top_x = int(top % size_t(x.width));
@@ -394,6 +422,31 @@ void estimate_variance(const Film& film, const std::array<double, kBatches>& sha
 }
 
 }  // namespace
+
+double student_t95(double dof) {
+    if (!(dof < 1e7)) return kZ95;
+    // With t = √ν tan θ, P(|T| <= t) = ∫₀^θ cos^(ν−1) / ∫₀^(π/2) cos^(ν−1), the latter
+    // √π Γ(ν/2) / (2 Γ((ν+1)/2)); the numerator by Simpson's rule, θ by bisection.
+    const double nu = std::max(dof, 1.0), half_pi = 2.0 * std::atan(1.0);
+    const double whole = 0.5 * std::sqrt(2.0 * half_pi) *
+                         std::exp(std::lgamma(0.5 * nu) - std::lgamma(0.5 * (nu + 1.0)));
+    const auto mass = [&](double theta) {
+        constexpr int kSteps = 512;
+        const double h = theta / kSteps;
+        double sum = 0.0;
+        for (int i = 0; i <= kSteps; ++i) {
+            const double f = std::pow(std::cos(i * h), nu - 1.0);
+            sum += f * (i == 0 || i == kSteps ? 1.0 : i % 2 ? 4.0 : 2.0);
+        }
+        return sum * h / 3.0 / whole;
+    };
+    double lo = 0.0, hi = std::atan(13.0 / std::sqrt(nu));  // t <= 12.71 from ν = 1 on
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (mass(mid) < 0.95 ? lo : hi) = mid;
+    }
+    return std::sqrt(nu) * std::tan(0.5 * (lo + hi));
+}
 
 ErrorEstimate estimate_error(const Film& film, int spp) {
     ErrorEstimate e;

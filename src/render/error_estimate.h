@@ -36,6 +36,9 @@ struct ErrorEstimate {
     double tail_share = 0.0;  ///< the share of rel_mse the top 0.1% of pixels carry
     bool tail = false;        ///< tail_share above one half
     int top_x = -1, top_y = -1;  ///< the pixel that carries the largest part of rel_mse (if valid)
+    /// The degrees of freedom of rel_mse's interval (Welch–Satterthwaite over its blocks): few
+    /// where a few blocks carry the error, and the interval then widens (student_t95).
+    double dof = 0.0;
     Image variance;           ///< per pixel and channel, the variance of the mean (if valid)
 };
 
@@ -43,6 +46,10 @@ struct ErrorEstimate {
 /// estimate above which it is raised.
 inline constexpr double kTailPixels = 0.001;
 inline constexpr double kTailShare = 0.5;
+
+/// The two-sided 95% quantile of Student's t with `dof` (> 0, not necessarily whole) degrees of
+/// freedom: 12.71 at 1, 1.96 as dof grows without bound.
+double student_t95(double dof);
 
 /// The estimate from `film`'s beauty, batches and batch shares; `spp`: the samples every pixel of
 /// the film holds (Film::pixel_spp's own under adaptive sampling).

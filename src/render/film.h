@@ -153,38 +153,60 @@ struct Film {
 /// iterations were added in (docs/design.md, Determinism). Values beyond ±2^24 (radiance 1.7e7),
 /// and sums that would overflow, are clamped and counted (the pipeline warns). Iteration i's
 /// beauty is also summed into batch (i - 1) mod kBatches: the sum of iterations 1 .. count holds
-/// count / kBatches of them in each batch, one more in the first count mod kBatches.
+/// count / kBatches of them in each batch, one more in the first count mod kBatches. With `bias`,
+/// iteration i's estimate of its maps' bias from photon half h, over all its samples (an
+/// iteration of one sample a pixel has but one sample half), is summed into bias half
+/// 2 ((i - 1) mod 2) + h: halves of different parities come from different iterations, whose
+/// samples and maps are independent, so that the mean film's bias_halves keep their contract.
 struct FixedFilm {
     static constexpr double kUnit = 4294967296.0;  // 2^32
     int width = 0, height = 0;
-    bool layered = false;
-    std::vector<int64_t> values;  ///< beauty, each layer, each batch's beauty; 3 per pixel
+    bool layered = false, bias = false;
+    /// Beauty, each layer, each batch's beauty, with `bias` the four bias halves; 3 per pixel.
+    std::vector<int64_t> values;
     uint64_t clamped = 0;
 
-    /// The values of a sum of `width` x `height` films, layered or not.
-    static size_t value_count(int width, int height, bool layered) {
-        return size_t(3) * width * height * (1 + (layered ? kLayerCount : 0) + kBatches);
+    /// The values of a sum of `width` x `height` films, layered or not, with bias halves or not.
+    static size_t value_count(int width, int height, bool layered, bool bias) {
+        return size_t(3) * width * height *
+               (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0));
     }
     /// An empty sum (all zero) of films of this shape.
-    void zero(int w, int h, bool with_layers) {
+    void zero(int w, int h, bool with_layers, bool with_bias) {
         width = w;
         height = h;
         layered = with_layers;
-        values.assign(value_count(w, h, with_layers), 0);
+        bias = with_bias;
+        values.assign(value_count(w, h, with_layers, with_bias), 0);
     }
-    /// Adds iteration `index`'s `film` (its shape is taken when empty).
+    /// Adds iteration `index`'s `film` (its shape is taken when empty; with `bias`, the film has
+    /// bias_halves).
     void add(const Film& film, int index) {
-        if (values.empty()) zero(film.beauty.width, film.beauty.height, film.layered());
+        if (values.empty())
+            zero(film.beauty.width, film.beauty.height, film.layered(), !film.bias_halves.empty());
         auto add_image = [&](const Image& img, size_t n) {
             for (const Color& c : img.pixels)
                 for (int k = 0; k < 3; ++k, ++n) values[n] = add_saturated(values[n], c[k]);
         };
-        const size_t image = size_t(3) * width * height;
+        const size_t image = size_t(3) * width * height, first_batch = 1 + film.layers.size();
         add_image(film.beauty, 0);
         for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
         const int batch = (index - 1) % kBatches;
         const uint64_t counted = clamped;  // the beauty's clamps are counted once
-        add_image(film.beauty, (1 + film.layers.size() + batch) * image);
+        add_image(film.beauty, (first_batch + batch) * image);
+        clamped = counted;
+        if (!bias) return;
+        FOGMAP_ASSERT(film.bias_halves.size() == 4, "a sum with bias halves adds films with them");
+        // Sample half s's share of the film's samples: its batches' (every other one).
+        float share[2] = {0.0f, 0.0f};
+        for (size_t b = 0; b < size_t(kBatches); ++b) share[b % 2] += float(film.batch_share[b]);
+        for (size_t h = 0; h < 2; ++h) {
+            Image whole(width, height);
+            for (size_t p = 0; p < whole.pixels.size(); ++p)
+                whole.pixels[p] = share[0] * film.bias_halves[h].pixels[p] +
+                                  share[1] * film.bias_halves[2 + h].pixels[p];
+            add_image(whole, (first_batch + kBatches + 2 * size_t((index - 1) % 2) + h) * image);
+        }
         clamped = counted;
     }
     /// The mean over iterations 1 .. `count`, batched by iteration.
@@ -202,6 +224,11 @@ struct FixedFilm {
             const int in_batch = count / kBatches + (b < count % kBatches ? 1 : 0);
             read_image(film.batches[size_t(b)], in_batch);
             film.batch_share[size_t(b)] = double(in_batch) / count;
+        }
+        if (bias && count >= 2) {  // both parities hold iterations: (count + 1) / 2 and count / 2
+            film.bias_halves.assign(4, Image(width, height));
+            for (int i = 0; i < 4; ++i)
+                read_image(film.bias_halves[size_t(i)], (count + 1 - i / 2) / 2);
         }
         return film;
     }

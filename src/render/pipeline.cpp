@@ -153,16 +153,16 @@ void warn_in(Report* report, bool speak, const std::string& text) {
 /// Whose bias the estimate of a photon method's run measures, and what lowers it (the report's
 /// words; where samples read photon batches).
 void bias_words(const RunSetup& setup, ErrorReport* r) {
+    // A progressive run's radii shrink with its iterations: more of them lower the bias too.
+    const std::string iterations = setup.progressive ? "more iterations" : "progressive iterations";
     if (setup.method == Method::MapEnd) {
         r->bias_of = "the volume map's";
-        r->bias_remedy =
-            "a smaller volume.radius (or more photons), progressive iterations or the path tracer "
-            "lower it";
+        r->bias_remedy = "a smaller volume.radius (or more photons), " + iterations +
+                         " or the path tracer lower it";
     } else {
         r->bias_of = "the photon maps'";
-        r->bias_remedy =
-            "more photons (or smaller volume.k, global.k, caustic.k), progressive iterations or "
-            "the path tracer lower it";
+        r->bias_remedy = "more photons (or smaller volume.k, global.k, caustic.k), " + iterations +
+                         " or the path tracer lower it";
     }
 }
 
@@ -260,6 +260,7 @@ void RunEnd::estimate(Film* film, Report* report) const {
     r.rel_mse = e.rel_mse.value;
     r.lo = e.rel_mse.lo;
     r.hi = e.rel_mse.hi;
+    r.dof = e.dof;
     r.bias_valid = e.bias_valid;
     r.bias2 = e.bias2.value;
     r.bias_lo = e.bias2.lo;
@@ -666,7 +667,7 @@ int RunLoop::iteration_cap() const {
 void RunLoop::gather_to_root() {
     counts_.clamped = int64_t(sum_.clamped);
     std::vector<int64_t> c = counts_.pack();
-    if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, /*layered=*/true);
+    if (sum_.values.empty()) sum_ = empty_sum(setup_);
     if (ranks_) {
         const Timer reduce;
         ranks_->sum_to_root(&c);
@@ -689,7 +690,7 @@ bool RunLoop::reduce() {
         counts_.clamped = int64_t(sum_.clamped);
         p.counts = counts_.pack();
         if (progressive_) {
-            if (sum_.values.empty()) sum_.zero(desc_.camera.width, desc_.camera.height, true);
+            if (sum_.values.empty()) sum_ = empty_sum(setup_);
             p.values = std::move(sum_.values);
         } else {
             p.values = film_bits(out_.film);
@@ -799,9 +800,17 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     return run_loaded(setup, *scene, o);
 }
 
+FixedFilm empty_sum(const RunSetup& setup) {
+    FixedFilm sum;
+    sum.zero(setup.run.camera.width, setup.run.camera.height, /*layered=*/true,
+             setup.photon_batches());
+    return sum;
+}
+
 size_t part_value_count(const RunSetup& setup, const PartSums::FilmShape& shape) {
     const int w = setup.run.camera.width, h = setup.run.camera.height;
-    if (setup.progressive) return FixedFilm::value_count(w, h, /*layered=*/true);
+    if (setup.progressive)
+        return FixedFilm::value_count(w, h, /*layered=*/true, setup.photon_batches());
     const size_t images = 1 + kLayerCount + kBatches + (shape.map_variance ? 1 : 0) +
                           size_t(std::max(shape.bias_halves, 0));
     return size_t(3) * w * h * images;
@@ -835,8 +844,7 @@ PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
     out.report = merged_report(std::move(reports_));
     if (setup.progressive) {
         const Counts sum = Counts::unpack(sum_.counts);
-        FixedFilm film;
-        film.zero(d.camera.width, d.camera.height, /*layered=*/true);
+        FixedFilm film = empty_sum(setup);
         film.values = std::move(sum_.values);
         film.clamped = uint64_t(sum.clamped);
         const RunEnd end{setup, sum, int(own.iterations), speak, false};

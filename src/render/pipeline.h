@@ -56,6 +56,10 @@ struct PartSums {
     } shape;
 };
 
+/// An empty sum of `setup`'s progressive iterations: layered, with bias halves where they read
+/// their maps in photon batches.
+FixedFilm empty_sum(const RunSetup& setup);
+
 /// PartSums::values' length for a part of `setup`'s run of a film of `shape`.
 size_t part_value_count(const RunSetup& setup, const PartSums::FilmShape& shape);
 

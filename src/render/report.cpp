@@ -1,5 +1,6 @@
 #include "render/report.h"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -25,12 +26,21 @@ std::string general(double v) {
     return buf;
 }
 
+/// Below this many degrees of freedom the interval's line says why it is wide (Student's t then
+/// 2.26 or more, where the normal's is 1.96).
+constexpr double kFewDegrees = 9.0;
+
 /// "error estimate: relMSE X [lo, hi] (95%) ..." and the tail's line, or why there is none.
 std::string error_text(const ErrorReport& e) {
     if (!e.valid) return "error estimate: none (" + e.why + ")\n";
     std::string text = "error estimate: relMSE " + general(e.rel_mse) + " [" + general(e.lo) +
                        ", " + general(e.hi) + "] (95%), from " + std::to_string(e.batches) +
-                       " batches of " + e.batched_by + "\n";
+                       " batches of " + e.batched_by;
+    // Few degrees of freedom: a few blocks carry the error and the interval widens (Student's t).
+    if (e.dof < kFewDegrees)
+        text += "; a few blocks of the image carry it (" + fixed(e.dof, 1) +
+                " degrees of freedom), which widens the interval";
+    text += "\n";
     const std::string of_which = "error estimate: of which " + e.bias_of + " bias²";
     if (e.bias_valid && e.bias2 <= 0.0)  // noise about a small bias
         text += of_which + ": too small to measure here (95% upper bound " +
@@ -65,6 +75,7 @@ nlohmann::json error_json(const ErrorReport& e) {
             {"lo", e.lo},
             {"hi", e.hi},
             {"confidence", 0.95},
+            {"dof", std::isfinite(e.dof) ? nlohmann::json(e.dof) : nlohmann::json()},
             {"bias2", e.bias_valid
                           ? nlohmann::json{{"value", e.bias2}, {"lo", e.bias_lo}, {"hi", e.bias_hi}}
                           : nlohmann::json()},

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +42,8 @@ struct ErrorReport {
     bool valid = false;                        ///< false: too few batches (why says)
     std::string why;                           ///< when not valid, why
     double rel_mse = 0.0, lo = 0.0, hi = 0.0;  ///< the estimate and its 95% interval
+    /// The interval's degrees of freedom (Student's t; infinite: the normal's quantile).
+    double dof = std::numeric_limits<double>::infinity();
     bool bias_valid = false;                   ///< the maps' bias² was estimated
     std::string bias_of;      ///< whose bias, possessive: "the volume map's", "the photon maps'"
     std::string bias_remedy;  ///< what lowers it

@@ -407,7 +407,6 @@ const char* describe(Method m) {
 }
 
 bool RunSetup::photon_batches() const {
-    if (progressive) return false;  // each iteration's maps are its own: its batches hold them
     return method == Method::MapEnd ||
            (method == Method::Gather &&
             PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));

@@ -55,10 +55,11 @@ struct RunSetup {
 
     /// The photon integrator's methods (the others trace no photon maps).
     bool photon() const { return method == Method::MapEnd || method == Method::Gather; }
-    /// A plain run's photon maps serve every sample, so samples read them in photon batches and
-    /// the film measures their noise and their radii's bias (render/volume_map_end.h,
-    /// PhotonBatches, RadiusBias); every lookup of the photon gather must be able to
-    /// (PhotonIntegrator::batches_supported).
+    /// Samples read the photon maps in photon batches, so that the film measures their radii's
+    /// bias (render/volume_map_end.h, PhotonBatches, RadiusBias) and, in a plain run, whose maps
+    /// serve every sample, their noise (a progressive run's batches are iterations with maps of
+    /// their own, and its sum keeps the bias alone: FixedFilm::bias); every lookup of the photon
+    /// gather must be able to (PhotonIntegrator::batches_supported).
     bool photon_batches() const;
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's, and whether
     /// adaptive sampling runs).

@@ -19,10 +19,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The layout of "fogmap checkpoint 3": the header line, then 8-byte fields.
-constexpr size_t kHeader = 20;  // "fogmap checkpoint 3\n"
-constexpr size_t kIterations = kHeader + 8, kWidth = kHeader + 16, kCounts = kHeader + 40;
-constexpr size_t kFirstCount = kHeader + 48;
+// The layout of "fogmap checkpoint 4": the header line, then 8-byte fields (fingerprint,
+// iterations, width, height, layered, bias halves, count of counts, counts, ...).
+constexpr size_t kHeader = 20;  // "fogmap checkpoint 4\n"
+constexpr size_t kIterations = kHeader + 8, kWidth = kHeader + 16, kBias = kHeader + 40,
+                 kCounts = kHeader + 48, kFirstCount = kHeader + 56;
 
 uint64_t fnv1a_64(const std::string& s) {
     uint64_t h = 14695981039346656037ull;
@@ -106,6 +107,8 @@ TEST_F(Checkpoints, CorruptOrForeignFieldsAreRefusedByName) {
     expect_refused(with_field(good_, kFirstCount + 16, -1), "counts");  // a negative count
     expect_refused("fogmap checkpoint 1\n" + good_.substr(kHeader), "format");
     expect_refused("fogmap checkpoint 2\n" + good_.substr(kHeader), "format");
+    expect_refused("fogmap checkpoint 3\n" + good_.substr(kHeader), "format");
+    expect_refused(with_field(good_, kBias, 1 - field(good_, kBias)), "bias");
     expect_refused("not a checkpoint", "format");
     expect_refused(with_field(good_, kHeader, 12345), "fingerprint");
     EXPECT_EQ(field(good_, kFirstCount), 2);

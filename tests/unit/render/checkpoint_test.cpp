@@ -18,22 +18,23 @@ namespace fogmap {
 namespace {
 
 constexpr uint64_t kFingerprint = 0x0123456789ABCDEFull;
-constexpr char kMagic[] = "fogmap checkpoint 3\n";
+constexpr char kMagic[] = "fogmap checkpoint 4\n";
 
-/// A run of at most 10 iterations, by default 3 x 2 and layered.
-CheckpointShape shape(bool layered = true, int width = 3, int height = 2) {
+/// A run of at most 10 iterations, by default 3 x 2, layered and with bias halves.
+CheckpointShape shape(bool layered = true, int width = 3, int height = 2, bool bias = true) {
     CheckpointShape s;
     s.fingerprint = kFingerprint;
     s.width = width;
     s.height = height;
     s.layered = layered;
+    s.bias = bias;
     s.max_iterations = 10;
     return s;
 }
 
 /// 7 iterations (counts[0], as the pipeline keeps it), the other counts distinct, every value
 /// distinct with negative ones and extremes among them.
-Checkpoint hand_built(bool layered = true, int width = 3, int height = 2) {
+Checkpoint hand_built(bool layered = true, int width = 3, int height = 2, bool bias = true) {
     Checkpoint c;
     c.fingerprint = kFingerprint;
     c.iterations = 7;
@@ -42,7 +43,9 @@ Checkpoint hand_built(bool layered = true, int width = 3, int height = 2) {
     c.sum.width = width;
     c.sum.height = height;
     c.sum.layered = layered;
-    c.sum.values.resize(size_t(3 * width * height * (1 + (layered ? kLayerCount : 0) + kBatches)));
+    c.sum.bias = bias;
+    c.sum.values.resize(
+        size_t(3 * width * height * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0))));
     for (size_t i = 0; i < c.sum.values.size(); ++i)
         c.sum.values[i] =
             int64_t((uint64_t(i) * 0x9E3779B97F4A7C15ull) ^ (i % 3 ? 0 : uint64_t(1) << 63));
@@ -50,8 +53,8 @@ Checkpoint hand_built(bool layered = true, int width = 3, int height = 2) {
 }
 
 /// The file's bytes by the header's description: the magic line; fingerprint, iterations,
-/// width, height, layered, count of counts, counts, count of values, values, little-endian; the
-/// FNV-1a checksum of all before it.
+/// width, height, layered, bias halves, count of counts, counts, count of values, values,
+/// little-endian; the FNV-1a checksum of all before it.
 std::string expected_bytes(const Checkpoint& c) {
     std::string out = kMagic;
     auto put = [&](uint64_t v) {
@@ -62,6 +65,7 @@ std::string expected_bytes(const Checkpoint& c) {
     put(uint64_t(c.sum.width));
     put(uint64_t(c.sum.height));
     put(c.sum.layered ? 1 : 0);
+    put(c.sum.bias ? 1 : 0);
     put(c.counts.size());
     for (int64_t v : c.counts) put(uint64_t(v));
     put(c.sum.values.size());
@@ -89,6 +93,7 @@ TEST(Checkpoint, RoundTripKeepsEveryField) {
         EXPECT_EQ(r.sum.width, c.sum.width);
         EXPECT_EQ(r.sum.height, c.sum.height);
         EXPECT_EQ(r.sum.layered, layered);
+        EXPECT_TRUE(r.sum.bias);
         EXPECT_EQ(r.sum.values, c.sum.values);
         EXPECT_EQ(r.sum.clamped, 0u);
     }
@@ -98,14 +103,15 @@ TEST(Checkpoint, RoundTripOfAFilmSumGivesTheSameMean) {
     Film film(3, 2, false);
     film.beauty.at(1, 0) = Color(0.5f, 1.25f, 3.0f);
     film.beauty.at(2, 1) = Color(7.0f, 0.0f, 0.125f);
-    Checkpoint c = hand_built(false);
+    Checkpoint c = hand_built(false, 3, 2, false);
     c.iterations = 2;
     c.counts[0] = 2;
     c.sum = FixedFilm{};
     c.sum.add(film, 1);
     c.sum.add(film, 2);
     const test::TempDir dir("fogmap_checkpoint");
-    const Checkpoint r = read_checkpoint(dir.write("a.ckpt", checkpoint_bytes(c)), shape(false));
+    const Checkpoint r =
+        read_checkpoint(dir.write("a.ckpt", checkpoint_bytes(c)), shape(false, 3, 2, false));
     EXPECT_EQ(r.sum.mean(r.iterations).beauty.pixels, film.beauty.pixels);
 }
 
@@ -162,9 +168,11 @@ TEST(Checkpoint, AnotherSizeThanTheRunsIsRefused) {
     const test::TempDir dir("fogmap_checkpoint");
     const std::string bytes = checkpoint_bytes(hand_built());
     EXPECT_EQ(refusal(dir, bytes + std::string(8, '\0')).field, "size");
-    // An unlayered checkpoint for a layered run, and the other way round.
+    // An unlayered checkpoint for a layered run, and the other way round; one without bias halves
+    // for a run with them.
     EXPECT_EQ(refusal(dir, checkpoint_bytes(hand_built(false))).field, "size");
     EXPECT_EQ(refusal(dir, bytes, shape(false)).field, "size");
+    EXPECT_EQ(refusal(dir, checkpoint_bytes(hand_built(true, 3, 2, false))).field, "size");
 }
 
 /// hand_built()'s bytes with its 8-byte field number `field` after the magic line set to v and
@@ -179,9 +187,9 @@ std::string with_field(size_t field, int64_t v) {
 
 TEST(Checkpoint, FieldsThatDisagreeAreRefusedByName) {
     const test::TempDir dir("fogmap_checkpoint");
-    // Fields: 0 fingerprint, 1 iterations, 2 width, 3 height, 4 layered, 5 count of counts,
-    // 6 .. 6 + kRunCounts − 1 the counts (the first the iterations again).
-    const size_t first_count = 6;
+    // Fields: 0 fingerprint, 1 iterations, 2 width, 3 height, 4 layered, 5 bias halves, 6 count
+    // of counts, 7 .. 7 + kRunCounts − 1 the counts (the first the iterations again).
+    const size_t first_count = 7;
     const struct {
         size_t field;
         int64_t value;
@@ -193,8 +201,9 @@ TEST(Checkpoint, FieldsThatDisagreeAreRefusedByName) {
         {2, 2, "width"},        // the file's size is the run's: the field alone disagrees
         {3, 3, "height"},
         {4, 0, "layers"},
-        {5, int64_t(kRunCounts) - 1, "counts"},
-        {5, -1, "counts"},
+        {5, 0, "bias"},
+        {6, int64_t(kRunCounts) - 1, "counts"},
+        {6, -1, "counts"},
         {first_count, 6, "counts"},       // not the checkpoint's iterations
         {first_count + 3, -5, "counts"},  // negative
     };
@@ -207,8 +216,8 @@ TEST(Checkpoint, FieldsThatDisagreeAreRefusedByName) {
 TEST(Checkpoint, ACountOfValuesThatDisagreesIsRefused) {
     // The count of values stands after the counts; the file's size fixes how many there are.
     const test::TempDir dir("fogmap_checkpoint");
-    const size_t values_field = 6 + kRunCounts;
-    const int64_t values = 3 * 3 * 2 * (1 + kLayerCount + kBatches);
+    const size_t values_field = 7 + kRunCounts;
+    const int64_t values = 3 * 3 * 2 * (1 + kLayerCount + kBatches + 4);
     refusal(dir, with_field(values_field, values - 1));
 }
 

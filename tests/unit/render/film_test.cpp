@@ -145,6 +145,34 @@ TEST(FixedFilm, IterationIGoesToBatchIMinusOneModKAndItsMeanIsTheBatchsMean) {
     EXPECT_FLOAT_EQ(mean.beauty.at(0, 0).x, 10.0f);
 }
 
+// Iteration f's bias halves: sample half s, photon half h holds 100 s + 10 h + f, and its sample
+// halves hold shares 3/4 and 1/4 (batches 0, 2, 4 of one sample, 1 of one). The sum keeps, for
+// photon half h, the iterations' share-weighted means over both sample halves, 10 h + 25 + f,
+// odd iterations in half 0, even ones in half 1: their means over 1, 3, 5 and 2, 4.
+TEST(FixedFilm, BiasHalvesAreSummedByIterationParity) {
+    const int count = 5;
+    FixedFilm sum;
+    for (int f = 1; f <= count; ++f) {
+        Film film = film_of(2, 1, true, [&](int, int, int) { return float(f); });
+        film.bias_halves.assign(4, Image(2, 1));
+        for (int i = 0; i < 4; ++i)
+            for (Color& c : film.bias_halves[size_t(i)].pixels)
+                c = Color(float(100 * (i / 2) + 10 * (i % 2) + f));
+        film.batch_share = {0.25, 0.25, 0.25, 0.0, 0.25, 0.0, 0.0, 0.0};
+        sum.add(film, f);
+    }
+    EXPECT_TRUE(sum.bias);
+    EXPECT_EQ(sum.values.size(), size_t(3 * 2 * (1 + kLayerCount + kBatches + 4)));
+    const Film mean = sum.mean(count);
+    ASSERT_EQ(mean.bias_halves.size(), 4u);
+    for (int i = 0; i < 4; ++i) {
+        const double iterations = i / 2 == 0 ? (1 + 3 + 5) / 3.0 : (2 + 4) / 2.0;
+        EXPECT_NEAR(mean.bias_halves[size_t(i)].at(1, 0).y, 10 * (i % 2) + 25 + iterations, 1e-5)
+            << "half " << i;
+    }
+    EXPECT_TRUE(sum.mean(1).bias_halves.empty());  // one parity alone: no independent pair
+}
+
 TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
     // Floats that a float sum would round differently in another order.
     std::vector<Film> films;

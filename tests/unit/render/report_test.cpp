@@ -173,6 +173,21 @@ TEST(Report, JsonCarriesEveryField) {
     EXPECT_EQ(e["tail"], true);
     EXPECT_EQ(e["top_pixel"], nlohmann::json({7, 3}));
     EXPECT_EQ(e["excludes"], "the bias");
+    EXPECT_TRUE(e["dof"].is_null());  // the normal's quantile
+}
+
+// The interval's degrees of freedom: in the JSON, and said in the text where few (a few blocks
+// carry the error, so the interval is wide), not where many.
+TEST(Report, FewDegreesOfFreedomAreSaid) {
+    Report r = hand_built();
+    const std::string few = "a few blocks of the image carry it";
+    EXPECT_EQ(report_text(r).find(few), std::string::npos);
+    r.error.dof = 40.0;
+    EXPECT_EQ(report_text(r).find(few), std::string::npos);
+    r.error.dof = 3.25;
+    EXPECT_NE(report_text(r).find(few + " (3.2 degrees of freedom)"), std::string::npos)
+        << report_text(r);
+    EXPECT_EQ(report_json(r)["error_estimate"]["dof"], 3.25);
 }
 
 TEST(Report, TheVolumeMapsBiasIsFlaggedOnlyWhenItsIntervalExcludesZero) {
