@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -346,6 +347,7 @@ private:
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
     bool last_round(int ran, int round, double loop_start_s);
     bool target_reached();
+    std::string bias_above_target(const ErrorEstimate& e, int n) const;
     int iteration_cap() const;
     void gather_to_root();
     bool reduce();
@@ -637,22 +639,52 @@ bool RunLoop::last_round(int ran, int round, double loop_start_s) {
     return false;
 }
 
-/// At a look: whether the error estimate of iterations 1 .. next_look_ (all of them in rank 0's
-/// sum, no later one anywhere: iteration_cap) has its upper bound at the target; the same
-/// answer on every rank, and for any rank count.
+/// At a look: whether the run stops, the same answer on every rank and for any rank count: the
+/// error estimate of iterations 1 .. next_look_ (all of them in rank 0's sum, no later one
+/// anywhere: iteration_cap) has its upper bound at the target, or its maps' bias² alone is
+/// further above it than the run's iterations can bring it (bias_above_target; the report says
+/// why the target was not reached).
 bool RunLoop::target_reached() {
     gather_to_root();
-    bool reached = false;
+    bool stop = false;
     if (root_) {
-        const ErrorEstimate e = estimate_error(sum_.mean(int(counts_.iterations)),
-                                               run_spp(desc_, true, int(counts_.iterations)));
-        reached = meets_target(e, desc_.progressive.target_relmse);
+        const int n = int(counts_.iterations);
+        const ErrorEstimate e = estimate_error(sum_.mean(n), run_spp(desc_, true, n));
+        const bool reached = meets_target(e, desc_.progressive.target_relmse);
+        const std::string why = reached ? "" : bias_above_target(e, n);
+        if (!why.empty()) report_.error.unreached = why;
+        stop = reached || !why.empty();
         if (!quiet_)
-            std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n",
-                         int(counts_.iterations), e.rel_mse.value, e.rel_mse.lo, e.rel_mse.hi,
-                         reached ? ", reached" : "");
+            std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n", n,
+                         e.rel_mse.value, e.rel_mse.lo, e.rel_mse.hi,
+                         reached       ? ", reached"
+                         : why.empty() ? ""
+                                       : ", stopped: the bias");
     }
-    return ranks_ ? ranks_->any(reached) : reached;
+    return ranks_ ? ranks_->any(stop) : stop;
+}
+
+/// Why the target cannot be reached, or "": the maps' bias² alone (its 95% lower bound) is above
+/// it, and more iterations would not bring it under within the run's iterations (its count, or
+/// as many as its time budget allows at the pace so far). The radii shrink as r^d ∝ i^(α − 1)
+/// (render/gather_params.h), the bias with r² and its square with r⁴: the discs' (d = 2), the
+/// fastest, reach X after n (lo / X)^(1 / (2 (1 − α))) iterations.
+std::string RunLoop::bias_above_target(const ErrorEstimate& e, int n) const {
+    const ProgressiveDesc& p = desc_.progressive;
+    if (!e.bias_valid || !(e.bias2.lo > p.target_relmse)) return "";
+    const double shrink = 2.0 * (1.0 - std::min(double(p.alpha), 0.99));
+    const double needed = n * std::pow(e.bias2.lo / p.target_relmse, 1.0 / shrink);
+    double most = p.iterations > 0 ? p.iterations : std::numeric_limits<double>::infinity();
+    if (p.time_budget > 0.0f) most = std::min(most, n * p.time_budget / timer_.seconds());
+    if (needed <= most) return "";
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "the maps' bias² alone, at least %.3g (95%%), is above the target, and the "
+                  "radii shrink too slowly with iterations to bring it under in this run (about "
+                  "%.3g iterations; stopped after %d): smaller radii (or more photons) or the "
+                  "path tracer lower it",
+                  e.bias2.lo, needed, n);
+    return text;
 }
 
 /// The last iteration the next round may run: progressive.iterations, and with a target the

@@ -55,9 +55,11 @@ std::string error_text(const ErrorReport& e) {
     if (e.target > 0.0)
         text += "error estimate: target relMSE " + general(e.target) +
                 (e.reached ? " reached after " + std::to_string(e.iterations) + " iterations\n"
-                           : " not reached in " + std::to_string(e.iterations) +
-                                 " iterations: the time budget or the iteration cap ended the "
-                                 "run\n");
+                           : " not reached in " + std::to_string(e.iterations) + " iterations: " +
+                                 (e.unreached.empty()
+                                      ? "the time budget or the iteration cap ended the run"
+                                      : e.unreached) +
+                                 "\n");
     if (e.tail)
         text += "error estimate: 0.1% of the pixels carry " + fixed(100.0 * e.tail_share, 0) +
                 "% of it (the most: pixel (" + std::to_string(e.top_x) + ", " +
@@ -87,6 +89,7 @@ nlohmann::json error_json(const ErrorReport& e) {
             {"excludes", e.excludes},
             {"target", e.target > 0.0 ? nlohmann::json(e.target) : nlohmann::json()},
             {"reached", e.reached},
+            {"unreached", e.unreached.empty() ? nlohmann::json() : nlohmann::json(e.unreached)},
             {"iterations", e.iterations}};
 }
 

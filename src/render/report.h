@@ -56,6 +56,8 @@ struct ErrorReport {
     std::string excludes;                      ///< the errors it cannot see ("": none known)
     double target = 0.0;                       ///< progressive.target_relmse (0: none)
     bool reached = false;                      ///< hi at most target
+    /// Why the target was not reached ("": the time budget or the iteration cap ended the run).
+    std::string unreached;
     int iterations = 0;                        ///< of the run (progressive)
 };
 

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -152,6 +153,29 @@ TEST(ErrorCalibration, AFourTimesWiderVolumeRadiusIsFlaggedAsBiasedAndTheDefault
 TEST(ErrorCalibration, AProgressiveRunsWiderVolumeRadiusIsFlaggedAsBiasedAndTheDefaultIsNot) {
     expect_four_times_the_radius_flagged({"render.spp=4", "progressive.iterations=8"},
                                          "progressive");
+}
+
+// A target under the maps' bias² alone: smoke.json's progressive run at four times its volume
+// radius has bias² about 8e-6 after 8 iterations (the test above); a target of 1e-8 would take
+// it, shrinking as the discs' fastest, some 10⁵ iterations, beyond the 4096 a target alone may
+// run: it stops at the first look, not reached, and says why.
+TEST(ErrorCalibration, ATargetUnderTheMapsBiasStopsAndSaysSo) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene;
+    std::vector<std::string> o = size_overrides(kSmoke);
+    o.push_back("render.spp=4");
+    o.push_back("progressive.iterations=1");
+    const float radius =
+        run_pipeline(load_scene_desc(path, o), true).report.iterations.at(0).radii.volume;
+    o.pop_back();
+    o.push_back("volume.radius=" + std::to_string(4.0f * radius));
+    const double target = 1e-8;
+    o.push_back("progressive.target_relmse=1e-8");
+    const ErrorReport e = run_pipeline(load_scene_desc(path, o), true).report.error;
+    EXPECT_FALSE(e.reached);
+    EXPECT_EQ(e.iterations, 8);
+    ASSERT_TRUE(e.bias_valid);
+    EXPECT_GT(8.0 * std::pow(e.bias_lo / target, 1.5), double(kTargetIterations)) << e.bias_lo;
+    EXPECT_NE(e.unreached.find("bias² alone"), std::string::npos) << e.unreached;
 }
 
 // The photon gather's maps' bias (photon/estimators.h, BatchSums::bias): fog.json's gather with

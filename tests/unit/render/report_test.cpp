@@ -190,6 +190,24 @@ TEST(Report, FewDegreesOfFreedomAreSaid) {
     EXPECT_EQ(report_json(r)["error_estimate"]["dof"], 3.25);
 }
 
+// A target not reached: by default the budget or the cap ended the run; where the run stopped on
+// the maps' bias, the text and the JSON say that instead.
+TEST(Report, AnUnreachedTargetSaysWhy) {
+    Report r = hand_built();
+    r.error.target = 0.001;
+    r.error.iterations = 8;
+    EXPECT_NE(report_text(r).find("not reached in 8 iterations: the time budget or the iteration "
+                                  "cap ended the run"),
+              std::string::npos);
+    EXPECT_TRUE(report_json(r)["error_estimate"]["unreached"].is_null());
+    r.error.unreached = "the maps' bias² alone is above the target";
+    EXPECT_NE(report_text(r).find("not reached in 8 iterations: the maps' bias² alone is above the "
+                                  "target\n"),
+              std::string::npos)
+        << report_text(r);
+    EXPECT_EQ(report_json(r)["error_estimate"]["unreached"], r.error.unreached);
+}
+
 TEST(Report, TheVolumeMapsBiasIsFlaggedOnlyWhenItsIntervalExcludesZero) {
     // Three estimates of the bias²: measurable (its interval above 0), within its noise (the
     // interval holds 0), below 0 (noise about a small bias: only its upper bound is said).
