@@ -20,6 +20,8 @@
 #include "core/image.h"
 #include "render/film.h"
 
+#include <limits>
+
 namespace fogmap {
 
 /// A value with its 95% interval.
@@ -38,7 +40,7 @@ struct ErrorEstimate {
     int top_x = -1, top_y = -1;  ///< the pixel that carries the largest part of rel_mse (if valid)
     /// The degrees of freedom of rel_mse's interval (Welch–Satterthwaite over its blocks): few
     /// where a few blocks carry the error, and the interval then widens (student_t95).
-    double dof = 0.0;
+    double dof = std::numeric_limits<double>::infinity();
     Image variance;           ///< per pixel and channel, the variance of the mean (if valid)
 };
 
