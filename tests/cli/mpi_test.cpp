@@ -12,6 +12,7 @@
 #include "test_support.h"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cstdio>
@@ -375,22 +376,30 @@ TEST_F(Mpi, RanksWithATimeBudgetStopTogether) {
 TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
     // 16 iterations at once; 6 with checkpoints, then resumed to 16 — at 1 rank, and at 2 ranks
     // resumed at 3; and a run killed (SIGKILL: no clean-up at all) while it writes a checkpoint
-    // after every round, resumed.
+    // after every round, resumed. The resumed runs' error estimates, their bias part from the
+    // checkpoint's bias halves, are the uninterrupted run's too.
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const std::string args = "render -q " + scene +
                              " --set camera.width=32 --set camera.height=18 --set render.spp=2 "
                              "--set photons.volume=5000 --set photons.global=2000 -o ";
-    ASSERT_EQ(run(args + at("whole.exr") + " --iterations 16", 0).code, 0);
+    const auto estimate = [](const test::RunResult& r) {
+        return nlohmann::json::parse(r.out)["error_estimate"].dump();
+    };
+    const test::RunResult whole = run(args + at("whole.exr") + " --iterations 16 --json", 0);
+    ASSERT_EQ(whole.code, 0) << whole.err;
     const std::string expected = test::slurp(at("whole.exr"));
+    const std::string expected_estimate = estimate(whole);
+    EXPECT_NE(expected_estimate.find("\"bias2\":{"), std::string::npos) << expected_estimate;
     for (const auto& [first, then] : {std::pair{0, 0}, std::pair{2, 3}}) {
         SCOPED_TRACE(std::to_string(first) + " then " + std::to_string(then) + " ranks");
         const std::string exr = at("r" + std::to_string(first) + ".exr");
         ASSERT_EQ(run(args + exr + " --iterations 6 --checkpoint-every 1000", first).code, 0);
         ASSERT_TRUE(fs::exists(exr + ".checkpoint"));
         EXPECT_FALSE(test::slurp(exr) == expected) << "6 iterations are not 16";
-        const test::RunResult r = run(args + exr + " --iterations 16 --resume", then);
+        const test::RunResult r = run(args + exr + " --iterations 16 --resume --json", then);
         ASSERT_EQ(r.code, 0) << r.err;
         EXPECT_TRUE(test::slurp(exr) == expected) << "the resumed image differs";
+        EXPECT_EQ(estimate(r), expected_estimate);
     }
     // Killed part way through 48 iterations (about 4 s; the kill comes at 1.5 s, whatever
     // iteration or checkpoint write is under way).
