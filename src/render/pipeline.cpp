@@ -646,14 +646,15 @@ bool RunLoop::last_round(int ran, int round, double loop_start_s) {
 /// why the target was not reached).
 bool RunLoop::target_reached() {
     gather_to_root();
-    bool stop = false;
+    bool stop = false, bias = false;
     if (root_) {
         const int n = int(counts_.iterations);
         const ErrorEstimate e = estimate_error(sum_.mean(n), run_spp(desc_, true, n));
         const bool reached = meets_target(e, desc_.progressive.target_relmse);
         const std::string why = reached ? "" : bias_above_target(e, n);
         if (!why.empty()) report_.error.unreached = why;
-        stop = reached || !why.empty();
+        bias = !why.empty();
+        stop = reached || bias;
         if (!quiet_)
             std::fprintf(stderr, "target: %d iterations, relMSE %.3g [%.3g, %.3g]%s\n", n,
                          e.rel_mse.value, e.rel_mse.lo, e.rel_mse.hi,
@@ -661,6 +662,7 @@ bool RunLoop::target_reached() {
                          : why.empty() ? ""
                                        : ", stopped: the bias");
     }
+    out_.bias_stopped = ranks_ ? ranks_->any(bias) : bias;
     return ranks_ ? ranks_->any(stop) : stop;
 }
 
@@ -796,6 +798,30 @@ PipelineResult run_loaded(const RunSetup& setup, const Scene& scene, const RunOp
     return RunLoop(setup, scene, o).run();
 }
 
+/// auto's answer to a target its photon run's bias alone put out of reach
+/// (RunLoop::bias_above_target): the path tracer, unbiased, from the first iteration, within the
+/// same time budget (the run's timer goes on); the report says so, with the photon run's time.
+/// Every rank takes it (bias_stopped is every rank's).
+PipelineResult unbiased_instead(const SceneDesc& file, const PipelineResult& photon,
+                                const Scene& scene, const RunOptions& o) {
+    const ErrorReport& e = photon.report.error;
+    char text[300];
+    std::snprintf(text, sizeof text,
+                  "auto: photon mapping's bias² alone (at least %.3g after %d iterations) is above "
+                  "the target relMSE %.3g: the path tracer, unbiased, renders it instead",
+                  e.bias_lo, e.iterations, e.target);
+    const bool speak = !o.silent && (!o.ranks || o.ranks->rank() == 0);
+    if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text);
+    const RunSetup path = resolve_picked(file, photon.setup, Integrator::Path, text);
+    PipelineResult out = run_loaded(path, scene, o);
+    double photon_s = 0.0;  // the photon run's phases but those the path run has again
+    for (const auto& [name, s] : photon.report.phases_s)
+        if (name != "load" && name != "pilot") photon_s += s;
+    add_phase(&out.report, "photon run", photon_s);
+    warn_in(&out.report, false, text);
+    return out;
+}
+
 }  // namespace
 
 uint64_t iteration_seed(uint64_t seed, int i, bool progressive) {
@@ -829,7 +855,10 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     o.checkpoints = checkpoints;
     o.timer = &timer;
     o.shared = &shared;
-    return run_loaded(setup, *scene, o);
+    PipelineResult photon = run_loaded(setup, *scene, o);
+    const bool fixed = part || (checkpoints && (checkpoints->resume || checkpoints->every_s > 0.0));
+    if (!photon.bias_stopped || desc.render.integrator != Integrator::Auto || fixed) return photon;
+    return unbiased_instead(desc, photon, *scene, o);
 }
 
 FixedFilm empty_sum(const RunSetup& setup) {

@@ -69,6 +69,8 @@ struct PipelineResult {
     /// With a part to run: its sums (film and report then unfinished: PartMerge finishes them).
     std::optional<PartSums> part;
     RunSetup setup;  ///< the run as it ran (auto's pilot settled)
+    /// A target run stopped as its maps' bias² alone was above the target (on every rank).
+    bool bias_stopped = false;
 };
 
 /// The seed of iteration i (1-based), a function of the run's seed and i alone: a plain render

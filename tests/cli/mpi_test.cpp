@@ -110,6 +110,30 @@ TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
     }
 }
 
+TEST_F(Mpi, AutosSwitchToThePathTracerIsTheSameOnEveryRankCount) {
+    // A target the photon run's bias² puts out of reach (four times smoke.json's volume radius):
+    // every rank learns it at the look and renders with the path tracer; the image is one
+    // process's at 2 and 3 ranks.
+    const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
+    const std::string args = "render -q " + scene +
+                             " --set camera.width=80 --set camera.height=45 --set render.spp=4 "
+                             "--set render.integrator=auto --set volume.radius=0.344 "
+                             "--set progressive.iterations=16 --target-relmse 1e-7 -o ";
+    const test::RunResult plain = run(args + at("plain.exr"), 0);
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    ASSERT_NE(plain.out.find("integrator: path (auto: photon mapping's bias² alone"),
+              std::string::npos)
+        << plain.out;
+    const std::string expected = test::slurp(at("plain.exr"));
+    for (int ranks : {2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks");
+        const std::string exr = at("a" + std::to_string(ranks) + ".exr");
+        const test::RunResult r = run(args + exr, ranks);
+        ASSERT_EQ(r.code, 0) << r.err;
+        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
+    }
+}
+
 TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
     // Every rank traces every n-th chunk of each photon round and renders every n-th tile; the
     // EXR is that of one process, for the photon maps (with points and with photon beams, which

@@ -178,6 +178,35 @@ TEST(ErrorCalibration, ATargetUnderTheMapsBiasStopsAndSaysSo) {
     EXPECT_NE(e.unreached.find("bias² alone"), std::string::npos) << e.unreached;
 }
 
+// auto uses it: smoke.json under auto with a target (progressive photon mapping) at four times
+// its volume radius and a target of 1e-6 within 16 iterations: the photon run's bias² (about
+// 6e-6 after 8) is out of reach, so the path tracer renders it instead, from its first iteration:
+// the image is a path-traced target run's of the same settings, and the report says why.
+TEST(ErrorCalibration, UnderAutoATargetTheBiasPutsOutOfReachGoesToThePathTracer) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene;
+    std::vector<std::string> o = size_overrides(kSmoke);
+    o.push_back("render.spp=4");
+    o.push_back("progressive.iterations=1");
+    const float radius =
+        run_pipeline(load_scene_desc(path, o), true).report.iterations.at(0).radii.volume;
+    o.back() = "progressive.iterations=16";
+    o.push_back("volume.radius=" + std::to_string(4.0f * radius));
+    o.push_back("progressive.target_relmse=1e-6");
+    std::vector<std::string> as_auto = o, as_path = o;
+    as_auto.push_back("render.integrator=\"auto\"");
+    as_path.push_back("render.integrator=\"path\"");
+    const PipelineResult run = run_pipeline(load_scene_desc(path, as_auto), true);
+    EXPECT_EQ(run.setup.method, Method::Path);
+    EXPECT_NE(run.setup.reason.find("bias² alone"), std::string::npos) << run.setup.reason;
+    const auto& w = run.report.warnings;
+    EXPECT_TRUE(std::any_of(w.begin(), w.end(), [](const std::string& s) {
+        return s.find("the path tracer, unbiased, renders it instead") != std::string::npos;
+    }));
+    const PipelineResult direct = run_pipeline(load_scene_desc(path, as_path), true);
+    EXPECT_EQ(run.film.beauty.pixels, direct.film.beauty.pixels);
+    EXPECT_EQ(run.report.error.iterations, direct.report.error.iterations);
+}
+
 // The photon gather's maps' bias (photon/estimators.h, BatchSums::bias): fog.json's gather with
 // sixteen times the global map's k (its discs four times as wide over the floor's lit ellipse,
 // whose edge they blur) is flagged, and above the default's estimate. (The default's own bias is
