@@ -155,21 +155,27 @@ TEST(ErrorCalibration, AProgressiveRunsWiderVolumeRadiusIsFlaggedAsBiasedAndTheD
                                          "progressive");
 }
 
-// A target under the maps' bias² alone: smoke.json's progressive run at four times its volume
-// radius has bias² about 8e-6 after 8 iterations (the test above); a target of 1e-8 would take
-// it, shrinking as the discs' fastest, some 10⁵ iterations, beyond the 4096 a target alone may
-// run: it stops at the first look, not reached, and says why.
-TEST(ErrorCalibration, ATargetUnderTheMapsBiasStopsAndSaysSo) {
+/// smoke.json's overrides for 160 x 90, 4 spp an iteration and four times its first iteration's
+/// volume radius (a bias² of about 8e-6 after 8 iterations: the test above), then `more`.
+std::vector<std::string> wide_progressive_smoke(const std::vector<std::string>& more) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene;
     std::vector<std::string> o = size_overrides(kSmoke);
     o.push_back("render.spp=4");
     o.push_back("progressive.iterations=1");
     const float radius =
         run_pipeline(load_scene_desc(path, o), true).report.iterations.at(0).radii.volume;
-    o.pop_back();
-    o.push_back("volume.radius=" + std::to_string(4.0f * radius));
+    o.back() = "volume.radius=" + std::to_string(4.0f * radius);
+    o.insert(o.end(), more.begin(), more.end());
+    return o;
+}
+
+// A target under the maps' bias² alone: a target of 1e-8 would take that bias², shrinking as the
+// discs' fastest, some 10⁵ iterations, beyond the 4096 a target alone may run: the run stops at
+// the first look, not reached, and says why.
+TEST(ErrorCalibration, ATargetUnderTheMapsBiasStopsAndSaysSo) {
+    const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene;
     const double target = 1e-8;
-    o.push_back("progressive.target_relmse=1e-8");
+    const std::vector<std::string> o = wide_progressive_smoke({"progressive.target_relmse=1e-8"});
     const ErrorReport e = run_pipeline(load_scene_desc(path, o), true).report.error;
     EXPECT_FALSE(e.reached);
     EXPECT_EQ(e.iterations, 8);
@@ -178,20 +184,14 @@ TEST(ErrorCalibration, ATargetUnderTheMapsBiasStopsAndSaysSo) {
     EXPECT_NE(e.unreached.find("bias² alone"), std::string::npos) << e.unreached;
 }
 
-// auto uses it: smoke.json under auto with a target (progressive photon mapping) at four times
-// its volume radius and a target of 1e-6 within 16 iterations: the photon run's bias² (about
-// 6e-6 after 8) is out of reach, so the path tracer renders it instead, from its first iteration:
-// the image is a path-traced target run's of the same settings, and the report says why.
+// auto uses it: the same wide radius under auto with a target (progressive photon mapping) of
+// 1e-6 within 16 iterations: the photon run's bias² is out of reach, so the path tracer renders
+// it instead, from its first iteration: the image is a path-traced target run's of the same
+// settings, and the report says why.
 TEST(ErrorCalibration, UnderAutoATargetTheBiasPutsOutOfReachGoesToThePathTracer) {
     const std::string path = std::string(FOGMAP_SOURCE_DIR) + "/" + kSmoke.scene;
-    std::vector<std::string> o = size_overrides(kSmoke);
-    o.push_back("render.spp=4");
-    o.push_back("progressive.iterations=1");
-    const float radius =
-        run_pipeline(load_scene_desc(path, o), true).report.iterations.at(0).radii.volume;
-    o.back() = "progressive.iterations=16";
-    o.push_back("volume.radius=" + std::to_string(4.0f * radius));
-    o.push_back("progressive.target_relmse=1e-6");
+    const std::vector<std::string> o =
+        wide_progressive_smoke({"progressive.iterations=16", "progressive.target_relmse=1e-6"});
     std::vector<std::string> as_auto = o, as_path = o;
     as_auto.push_back("render.integrator=\"auto\"");
     as_path.push_back("render.integrator=\"path\"");
