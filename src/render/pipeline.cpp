@@ -855,10 +855,11 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     o.checkpoints = checkpoints;
     o.timer = &timer;
     o.shared = &shared;
-    PipelineResult photon = run_loaded(setup, *scene, o);
+    PipelineResult result = run_loaded(setup, *scene, o);
+    // Checkpoints and parts fix the run's settings: there the bias stop ends the run.
     const bool fixed = part || (checkpoints && (checkpoints->resume || checkpoints->every_s > 0.0));
-    if (!photon.bias_stopped || desc.render.integrator != Integrator::Auto || fixed) return photon;
-    return unbiased_instead(desc, photon, *scene, o);
+    if (!result.bias_stopped || desc.render.integrator != Integrator::Auto || fixed) return result;
+    return unbiased_instead(desc, result, *scene, o);
 }
 
 FixedFilm empty_sum(const RunSetup& setup) {
