@@ -191,7 +191,7 @@ struct FixedFilm {
         const size_t image = size_t(3) * width * height, first_batch = 1 + film.layers.size();
         add_image(film.beauty, 0);
         for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
-        const int batch = (index - 1) % kBatches;
+        const int batch = class_of(index, kBatches);
         const uint64_t counted = clamped;  // the beauty's clamps are counted once
         add_image(film.beauty, (first_batch + batch) * image);
         clamped = counted;
@@ -205,7 +205,7 @@ struct FixedFilm {
             for (size_t p = 0; p < whole.pixels.size(); ++p)
                 whole.pixels[p] = share[0] * film.bias_halves[h].pixels[p] +
                                   share[1] * film.bias_halves[2 + h].pixels[p];
-            add_image(whole, (first_batch + kBatches + 2 * size_t((index - 1) % 2) + h) * image);
+            add_image(whole, (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
         }
         clamped = counted;
     }
@@ -221,19 +221,26 @@ struct FixedFilm {
         read_image(film.beauty, count);
         for (Image& img : film.layers) read_image(img, count);
         for (int b = 0; b < kBatches; ++b) {
-            const int in_batch = count / kBatches + (b < count % kBatches ? 1 : 0);
+            const int in_batch = in_class(count, b, kBatches);
             read_image(film.batches[size_t(b)], in_batch);
             film.batch_share[size_t(b)] = double(in_batch) / count;
         }
-        if (bias && count >= 2) {  // both parities hold iterations: (count + 1) / 2 and count / 2
+        if (bias && count >= 2) {  // both parities hold iterations
             film.bias_halves.assign(4, Image(width, height));
             for (int i = 0; i < 4; ++i)
-                read_image(film.bias_halves[size_t(i)], (count + 1 - i / 2) / 2);
+                read_image(film.bias_halves[size_t(i)], in_class(count, i / 2, 2));
         }
         return film;
     }
 
 private:
+    /// Iteration `index` (from 1) falls in class (index − 1) mod `classes`: its batch (kBatches)
+    /// and its bias halves' parity (2).
+    static int class_of(int index, int classes) { return (index - 1) % classes; }
+    /// Of iterations 1 .. count, those in class k of `classes`.
+    static int in_class(int count, int k, int classes) {
+        return count / classes + (k < count % classes ? 1 : 0);
+    }
     int64_t add_saturated(int64_t sum, float v) {
         constexpr double kMax = 16777216.0;  // 2^24
         const double x = double(v);
