@@ -90,10 +90,14 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     // A map variance and four bias halves where samples read photon batches.
     const int layers = 1 + kLayerCount + kBatches + (setup.photon_batches() ? 1 + 4 : 0);
     // Films of the beauty, layers, batches, and map variance and bias halves (render/film.h):
-    // the run's and the iteration's it adds (pipeline.cpp); the reference and, for progressive
-    // runs, the running mean compared with it; the estimate's variance and samples layers; the
-    // PNG's 8-bit RGB and its encoding.
-    const double films = pixels * sizeof(Color) * layers * 2;
+    // the run's and the iteration's it adds (pipeline.cpp), a progressive run's in fixed point
+    // (FixedFilm: 8 bytes a value, no map variance, and its pixels' samples); the reference and,
+    // for progressive runs, the running mean compared with it; the estimate's variance and
+    // samples layers; the PNG's 8-bit RGB and its encoding.
+    const int sum_images = layers - (setup.photon_batches() ? 1 : 0);
+    const double sum = setup.progressive ? pixels * (2 * sizeof(Color) * sum_images + 8.0)
+                                         : pixels * sizeof(Color) * layers;
+    const double films = pixels * sizeof(Color) * layers + sum;
     // Adaptive sampling's first-pass figures and allocation (render/adaptive.cpp): 56 bytes a
     // pixel at most. The error estimate's weights (render/error_estimate.cpp): 9 images at most.
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) +
@@ -123,7 +127,7 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
                                std::to_string(desc.camera.height) + " pixels x " +
                                std::to_string(m.layers) + " images (beauty, layers, batches" +
                                (setup.photon_batches() ? ", the maps' variance, bias halves" : "") +
-                               ") x 2 films x 12 bytes, and more";
+                               ") x 12 bytes x 2 films (3 for a sum of iterations), and more";
     throw InputError(desc.path, m.maps > m.images ? "/photons" : "/camera/width",
                      "the run needs about " + mb(total) + ": images " + mb(m.images) + " (" +
                          images + "), photon maps " + mb(m.maps) + "; only " + mb(double(budget)) +

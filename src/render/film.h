@@ -158,18 +158,22 @@ struct Film {
 /// iteration of one sample a pixel has but one sample half), is summed into bias half
 /// 2 ((i - 1) mod 2) + h: halves of different parities come from different iterations, whose
 /// samples and maps are independent, so that the mean film's bias_halves keep their contract.
+/// Each pixel's camera samples are summed too (integers, after the images): iterations under
+/// adaptive sampling take different counts, yet each adds its pixel means with the same weight,
+/// so that a count never weighs the values it was chosen from.
 struct FixedFilm {
     static constexpr double kUnit = 4294967296.0;  // 2^32
     int width = 0, height = 0;
     bool layered = false, bias = false;
-    /// Beauty, each layer, each batch's beauty, with `bias` the four bias halves; 3 per pixel.
+    /// Beauty, each layer, each batch's beauty, with `bias` the four bias halves (3 per pixel),
+    /// then each pixel's samples (1).
     std::vector<int64_t> values;
     uint64_t clamped = 0;
 
     /// The values of a sum of `width` x `height` films, layered or not, with bias halves or not.
     static size_t value_count(int width, int height, bool layered, bool bias) {
-        return size_t(3) * width * height *
-               (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0));
+        return size_t(width) * height *
+               (3 * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0)) + 1);
     }
     /// An empty sum (all zero) of films of this shape.
     void zero(int w, int h, bool with_layers, bool with_bias) {
@@ -179,16 +183,20 @@ struct FixedFilm {
         bias = with_bias;
         values.assign(value_count(w, h, with_layers, with_bias), 0);
     }
-    /// Adds iteration `index`'s `film` (its shape is taken when empty; with `bias`, the film has
-    /// bias_halves).
-    void add(const Film& film, int index) {
+    /// Adds iteration `index`'s `film` of `spp` samples a pixel, or of its own (Film::pixel_spp)
+    /// (its shape is taken when empty; with `bias`, the film has bias_halves).
+    void add(const Film& film, int index, int spp) {
         if (values.empty())
             zero(film.beauty.width, film.beauty.height, film.layered(), !film.bias_halves.empty());
         auto add_image = [&](const Image& img, size_t n) {
             for (const Color& c : img.pixels)
                 for (int k = 0; k < 3; ++k, ++n) values[n] = add_saturated(values[n], c[k]);
         };
-        const size_t image = size_t(3) * width * height, first_batch = 1 + film.layers.size();
+        const size_t pixels = size_t(width) * height, image = 3 * pixels,
+                     first_batch = 1 + film.layers.size();
+        const size_t samples = values.size() - pixels;
+        for (size_t p = 0; p < pixels; ++p)
+            values[samples + p] += film.pixel_spp.empty() ? spp : film.pixel_spp[p];
         add_image(film.beauty, 0);
         for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
         const int batch = class_of(index, kBatches);
@@ -197,19 +205,21 @@ struct FixedFilm {
         clamped = counted;
         if (!bias) return;
         FOGMAP_ASSERT(film.bias_halves.size() == 4, "a sum with bias halves adds films with them");
-        // Sample half s's share of the film's samples: its batches' (every other one).
-        float share[2] = {0.0f, 0.0f};
-        for (size_t b = 0; b < size_t(kBatches); ++b) share[b % 2] += float(film.batch_share[b]);
         for (size_t h = 0; h < 2; ++h) {
             Image whole(width, height);
-            for (size_t p = 0; p < whole.pixels.size(); ++p)
+            for (size_t p = 0; p < whole.pixels.size(); ++p) {
+                // Sample half s's share of the pixel's samples: its batches' (every other one).
+                const std::array<double, kBatches> shares = film.shares(p);
+                float share[2] = {0.0f, 0.0f};
+                for (size_t b = 0; b < size_t(kBatches); ++b) share[b % 2] += float(shares[b]);
                 whole.pixels[p] = share[0] * film.bias_halves[h].pixels[p] +
                                   share[1] * film.bias_halves[2 + h].pixels[p];
+            }
             add_image(whole, (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
         }
         clamped = counted;
     }
-    /// The mean over iterations 1 .. `count`, batched by iteration.
+    /// The mean over iterations 1 .. `count`, batched by iteration, and each pixel's samples.
     Film mean(int count) const {
         Film film(width, height, layered);
         size_t n = 0;
@@ -230,6 +240,10 @@ struct FixedFilm {
             for (int i = 0; i < 4; ++i)
                 read_image(film.bias_halves[size_t(i)], in_class(count, i / 2, 2));
         }
+        film.samples = Image(width, height);
+        const size_t samples = values.size() - film.samples.pixels.size();
+        for (size_t p = 0; p < film.samples.pixels.size(); ++p)
+            film.samples.pixels[p] = Color(float(values[samples + p]));
         return film;
     }
 

@@ -16,15 +16,21 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap part 1\n";
+constexpr char kMagic[] = "fogmap part 2\n";
+/// Format 1's first line: its progressive sums had no samples per pixel.
+constexpr char kOldMagic[] = "fogmap part 1\n";
 constexpr uint64_t kMaxPartBytes = uint64_t(1) << 40;   ///< a bound before reading; sizes follow
 constexpr uint64_t kMaxJsonBytes = uint64_t(64) << 20;  ///< the description (settings, report)
 
 /// Fails unless `head` starts with the part file's first line.
 void check_magic(const std::string& path, const std::string& head) {
+    if (head.compare(0, std::strlen(kOldMagic), kOldMagic) == 0)
+        throw InputError(path, "format",
+                         "written by an older fogmap (format 1); render the parts again with this "
+                         "one");
     if (head.compare(0, std::strlen(kMagic), kMagic) != 0)
         throw InputError(path, "format",
-                         "not a fogmap part file (its first line is not \"fogmap part 1\")");
+                         "not a fogmap part file (its first line is not \"fogmap part 2\")");
 }
 
 template <class T>

@@ -278,12 +278,14 @@ void RunEnd::estimate(Film* film, Report* report) const {
     if (setup.photon()) r.excludes = excluded(setup);
     if (setup.photon_batches()) bias_words(setup, &r);
     film->variance = std::move(e.variance);
-    film->samples = Image(report->width, report->height);
-    if (film->pixel_spp.empty())
-        std::fill(film->samples.pixels.begin(), film->samples.pixels.end(),
-                  Color(float(report->spp)));
-    for (size_t p = 0; p < film->pixel_spp.size(); ++p)  // adaptive sampling's own
-        film->samples.pixels[p] = Color(float(film->pixel_spp[p]));
+    if (film->samples.pixels.empty()) {  // a progressive sum's mean has its own
+        film->samples = Image(report->width, report->height);
+        if (film->pixel_spp.empty())
+            std::fill(film->samples.pixels.begin(), film->samples.pixels.end(),
+                      Color(float(report->spp)));
+        for (size_t p = 0; p < film->pixel_spp.size(); ++p)  // adaptive sampling's own
+            film->samples.pixels[p] = Color(float(film->pixel_spp[p]));
+    }
     add_phase(report, "estimate", timer.seconds());
 }
 
@@ -588,7 +590,7 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
 /// Adds an iteration's film and counts to the run's, and its line to the report.
 void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it) {
     if (progressive_)
-        sum_.add(film, it.index);
+        sum_.add(film, it.index, desc_.render.spp);
     else
         out_.film = std::move(film);
     add_phase(&report_, "render", stats.render_s);

@@ -412,9 +412,9 @@ bool RunSetup::photon_batches() const {
             PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));
 }
 
-bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive) {
+bool adaptive_sampling(const SceneDesc& desc, Method method) {
     const int spp = desc.render.spp;
-    return desc.render.adaptive && method != Method::Gather && !progressive &&
+    return desc.render.adaptive && method != Method::Gather &&
            first_pass_spp(spp, strata_unit(spp)) < spp;
 }
 
@@ -432,8 +432,8 @@ void RunSetup::set_reason(std::string why) {
     const int spp = run.render.spp;
     if (run.render.adaptive)
         plan.integrator.reason +=
-            "; adaptive sampling: a first pass of " +
-            std::to_string(first_pass_spp(spp, strata_unit(spp))) +
+            std::string("; adaptive sampling") + (progressive ? " in each iteration" : "") +
+            ": a first pass of " + std::to_string(first_pass_spp(spp, strata_unit(spp))) +
             " spp, then the rest of render.spp's work where it shows the error";
 }
 
@@ -500,7 +500,7 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
                       std::to_string(kTargetIterations) + " iterations to reach the target";
     }
     s.progressive = p.enabled();
-    d.render.adaptive = adaptive_sampling(d, s.method, s.progressive);
+    d.render.adaptive = adaptive_sampling(d, s.method);
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
     s.photons.volume_attempts = volume_attempts(d);
@@ -541,7 +541,6 @@ uint64_t resumable_fingerprint(const RunSetup& setup) {
     j["progressive"].erase("time_budget");
     j["progressive"].erase("target_relmse");
     j["render"].erase("threads");
-    j["render"].erase("adaptive");  // never on in iterations: checkpoints from before it resume
     return fnv1a(j.dump());
 }
 

@@ -141,11 +141,11 @@ IterationSize iteration_size(const SceneDesc& desc);
 /// function weighs few of the gathered photons; otherwise volume.k (its default when not given).
 int volume_k(const SceneDesc& desc);
 
-/// Whether render.adaptive applies to `desc` run by `method`, `progressive` or not: camera paths
-/// traced as paths (the photon gather reads its maps at advanced.map_spp samples a pixel, however
-/// many it takes), in a plain render of one iteration (whose film holds each pixel's samples),
-/// of render.spp enough to leave a first pass something to allocate (first_pass_spp).
-bool adaptive_sampling(const SceneDesc& desc, Method method, bool progressive);
+/// Whether render.adaptive applies to `desc` run by `method`: camera paths traced as paths (the
+/// photon gather reads its maps at advanced.map_spp samples a pixel, however many it takes), at
+/// render.spp (an iteration's, where the run has iterations: each allocates its own) enough to
+/// leave a first pass something to allocate (first_pass_spp).
+bool adaptive_sampling(const SceneDesc& desc, Method method);
 
 /// resolve_run(desc).plan.
 Plan make_plan(const SceneDesc& desc);

@@ -7,6 +7,7 @@
 // budget stop together; a run resumed from its checkpoint (at any rank count, also after a SIGKILL) ends with
 // the image of an uninterrupted run.
 
+#include "core/image.h"
 #include "core/timer.h"
 #include "media/volume_gen.h"
 #include "test_support.h"
@@ -397,6 +398,33 @@ TEST_F(Mpi, RanksWithATimeBudgetStopTogether) {
     EXPECT_NE(r.out.find("2 MPI ranks"), std::string::npos) << r.out;
 }
 
+TEST_F(Mpi, IterationsAllocatingTheirOwnSamplesGiveTheSameImageAtAnyRankCount) {
+    // Camera paths ending in the volume map, 16 spp an iteration: each iteration's adaptive
+    // sampling is its own (a rank runs it whole), so the ranks' sum is the lone process's, and
+    // its samples layer adds each pixel's counts.
+    const std::string args = "render -q --json " + std::string(FOGMAP_SOURCE_DIR) +
+                             "/scenes/smoke.json --set camera.width=32 --set camera.height=18 "
+                             "--set render.spp=16 --set render.integrator=\"photon\" "
+                             "--set volume.gather_depth=3 --set photons.volume=5000 "
+                             "--set progressive.iterations=3 -o ";
+    const test::RunResult plain = run(args + at("plain.exr"), 0);
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    EXPECT_TRUE(nlohmann::json::parse(plain.out)["settings"]["render"]["adaptive"].get<bool>());
+    const Image samples = read_exr(at("plain.exr"), "samples");
+    const auto [least, most] =
+        std::minmax_element(samples.pixels.begin(), samples.pixels.end(),
+                            [](const Color& a, const Color& b) { return a.x < b.x; });
+    EXPECT_LT(least->x, most->x) << "every pixel took the same samples";
+    EXPECT_GE(least->x, 3.0f * 8.0f);  // at least each iteration's first pass, 8 spp
+    const std::string expected = test::slurp(at("plain.exr"));
+    for (int ranks : {2, 3}) {
+        SCOPED_TRACE(std::to_string(ranks) + " ranks");
+        const std::string exr = at("r" + std::to_string(ranks) + ".exr");
+        ASSERT_EQ(run(args + exr, ranks).code, 0);
+        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
+    }
+}
+
 TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
     // 16 iterations at once; 6 with checkpoints, then resumed to 16 — at 1 rank, and at 2 ranks
     // resumed at 3; and a run killed (SIGKILL: no clean-up at all) while it writes a checkpoint
@@ -471,7 +499,7 @@ TEST_F(Mpi, SequenceFramesAreDealtToRankGroups) {
 TEST_F(Mpi, ACheckpointOfOtherSettingsIsRefused) {
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const std::string exr = at("c.exr");
-    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 4\n" + std::string(80, '\x01'));
+    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 5\n" + std::string(80, '\x01'));
     const test::RunResult r = run("render -q " + scene +
                                       " --set camera.width=8 --set camera.height=6 "
                                       "--set progressive.iterations=2 --resume -o " +

@@ -82,8 +82,11 @@ TEST_F(Parts, MergedPartsAreTheImageOfMpirun) {
         << "mpirun not found: scripts/debian-packages installs openmpi-bin";
     const std::string args = "render -q " + std::string(FOGMAP_SOURCE_DIR) +
                              "/scenes/fog.json --set camera.width=32 --set camera.height=18 "
-                             "--spp 2 --set photons.volume=5000 ";
-    for (const std::string& c : {std::string(""), std::string("--iterations 4")}) {
+                             "--set photons.volume=5000 ";
+    // A plain render, iterations, and iterations that allocate their own samples (path, 16 spp).
+    for (const std::string& c : {std::string("--spp 2"), std::string("--spp 2 --iterations 4"),
+                                 std::string("--spp 16 --iterations 3 --set "
+                                             "render.integrator=\"path\"")}) {
         SCOPED_TRACE(c);
         const test::RunResult mpi =
             run(args + c + " -o " + at("mpi.exr"),
@@ -135,6 +138,7 @@ TEST_F(Parts, PartsOfAnotherRunOrMissingRepeatedOrCorruptAreRefusedByName) {
     flipped[flipped.size() - 100] ^= 0x10;  // in the film
     const std::string corrupt = tmp_.write("corrupt.fogpart", flipped),
                       cut = tmp_.write("cut.fogpart", good.substr(0, good.size() / 2)),
+                      format1 = tmp_.write("f1.fogpart", "fogmap part 1\n" + good.substr(14)),
                       old = tmp_.write("m.exr", "an older image");
     struct Case {
         std::string parts, file, field;
@@ -147,6 +151,7 @@ TEST_F(Parts, PartsOfAnotherRunOrMissingRepeatedOrCorruptAreRefusedByName) {
         {p1 + " " + p1, p1, "part"},         // part 1 twice
         {p1 + " " + corrupt, corrupt, "checksum"},
         {p1 + " " + cut, cut, "checksum"},
+        {p1 + " " + format1, format1, "format"},          // an older fogmap's
         {p1 + " " + at("s.json"), at("s.json"), "size"},  // no such file
         {p1 + " " + std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json",
          std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json", "format"},

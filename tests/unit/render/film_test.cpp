@@ -78,11 +78,11 @@ TEST(FixedFilm, MeanOfGridValuesIsTheExactMean) {
                    float(f) / 256.0f;
         }));
     FixedFilm sum;
-    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1);
+    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1, 1);
     EXPECT_EQ(sum.width, w);
     EXPECT_EQ(sum.height, h);
     EXPECT_TRUE(sum.layered);
-    EXPECT_EQ(sum.values.size(), size_t(3 * w * h * (1 + kLayerCount + kBatches)));
+    EXPECT_EQ(sum.values.size(), size_t(w * h * (3 * (1 + kLayerCount + kBatches) + 1)));
     EXPECT_EQ(sum.clamped, 0u);
     const Film mean = sum.mean(count);
     ASSERT_TRUE(mean.layered());
@@ -109,7 +109,7 @@ TEST(FixedFilm, MeanOfAnyValuesIsTheMeanToRounding) {
             return std::sin(0.37f * float(p * 3 + c) + float(f)) * 1000.0f + 0.1f * float(f);
         }));
     FixedFilm sum;
-    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1);
+    for (int f = 0; f < count; ++f) sum.add(films[f], f + 1, 1);
     const Film mean = sum.mean(count);
     EXPECT_FALSE(mean.layered());
     for (size_t p = 0; p < mean.beauty.pixels.size(); ++p)
@@ -128,7 +128,7 @@ TEST(FixedFilm, IterationIGoesToBatchIMinusOneModKAndItsMeanIsTheBatchsMean) {
     const int count = 19;
     FixedFilm sum;
     for (int f = 1; f <= count; ++f)
-        sum.add(film_of(2, 2, false, [&](int, int, int) { return float(f); }), f);
+        sum.add(film_of(2, 2, false, [&](int, int, int) { return float(f); }), f, 1);
     const Film mean = sum.mean(count);
     double shares = 0.0, weighted = 0.0;
     for (int b = 0; b < kBatches; ++b) {
@@ -159,10 +159,10 @@ TEST(FixedFilm, BiasHalvesAreSummedByIterationParity) {
             for (Color& c : film.bias_halves[size_t(i)].pixels)
                 c = Color(float(100 * (i / 2) + 10 * (i % 2) + f));
         film.batch_share = {0.25, 0.25, 0.25, 0.0, 0.25, 0.0, 0.0, 0.0};
-        sum.add(film, f);
+        sum.add(film, f, 1);
     }
     EXPECT_TRUE(sum.bias);
-    EXPECT_EQ(sum.values.size(), size_t(3 * 2 * (1 + kLayerCount + kBatches + 4)));
+    EXPECT_EQ(sum.values.size(), size_t(2 * (3 * (1 + kLayerCount + kBatches + 4) + 1)));
     const Film mean = sum.mean(count);
     ASSERT_EQ(mean.bias_halves.size(), 4u);
     for (int i = 0; i < 4; ++i) {
@@ -171,6 +171,38 @@ TEST(FixedFilm, BiasHalvesAreSummedByIterationParity) {
             << "half " << i;
     }
     EXPECT_TRUE(sum.mean(1).bias_halves.empty());  // one parity alone: no independent pair
+}
+
+// Adaptive sampling in iterations: each film's pixels have samples of their own (Film::pixel_spp,
+// batched in units of 2). Pixel 0 took 6 (batches 0, 1, 2 two each: sample half 0 holds 4 / 6 of
+// them), pixel 1 took 2 (batch 0: half 0 holds all). Bias half s, h holds 100 s + 10 h, so the
+// pixel's estimate for photon half h is 10 h + 100 / 3 and 10 h. The sum adds each pixel's samples:
+// 6 + 6 + 5 and 2 + 2 + 5 after a third, uniform film of 5; each film weighs 1 in the mean.
+TEST(FixedFilm, AdaptiveFilmsAddTheirPixelsOwnSamplesAndShares) {
+    FixedFilm sum;
+    for (int f = 1; f <= 3; ++f) {
+        Film film = film_of(2, 1, true, [&](int, int p, int) { return float(f + 10 * p); });
+        film.bias_halves.assign(4, Image(2, 1));
+        for (int i = 0; i < 4; ++i)
+            for (Color& c : film.bias_halves[size_t(i)].pixels)
+                c = Color(float(100 * (i / 2) + 10 * (i % 2)));
+        if (f < 3) {
+            film.pixel_spp = {6, 2};
+            film.unit = 2;
+        }
+        film.batch_share = {0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // the first pass's
+        sum.add(film, f, 5);
+    }
+    const Film mean = sum.mean(3);
+    EXPECT_EQ(mean.samples.at(0, 0), Color(17.0f));
+    EXPECT_EQ(mean.samples.at(1, 0), Color(9.0f));
+    EXPECT_NEAR(mean.beauty.at(0, 0).y, 2.0, 1e-5);  // (1 + 2 + 3) / 3, not weighed by samples
+    ASSERT_EQ(mean.bias_halves.size(), 4u);
+    for (int h = 0; h < 2; ++h) {  // iterations 1 and 3 (odd) in half 0 + h, 2 in half 2 + h
+        EXPECT_NEAR(mean.bias_halves[size_t(2 + h)].at(0, 0).y, 10 * h + 100.0 / 3.0, 1e-4);
+        EXPECT_NEAR(mean.bias_halves[size_t(2 + h)].at(1, 0).y, 10 * h, 1e-5);
+        EXPECT_NEAR(mean.bias_halves[size_t(h)].at(1, 0).y, (10 * h + 10 * h + 50) / 2.0, 1e-5);
+    }
 }
 
 TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
@@ -183,11 +215,11 @@ TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
         }));
     std::vector<int> order{0, 1, 2, 3, 4};
     FixedFilm reference;
-    for (int i : order) reference.add(films[i], i + 1);
+    for (int i : order) reference.add(films[i], i + 1, 1);
     int permutations = 0;
     while (std::next_permutation(order.begin(), order.end())) {
         FixedFilm sum;
-        for (int i : order) sum.add(films[i], i + 1);
+        for (int i : order) sum.add(films[i], i + 1, 1);
         ASSERT_EQ(sum.values, reference.values);
         ++permutations;
     }
@@ -200,7 +232,7 @@ TEST(FixedFilm, ValuesBeyondTwoToThe24AreClampedAndCounted) {
     film.beauty.at(0, 0) = Color(kMax, -kMax, 3.0f);  // at the limit: kept
     film.beauty.at(1, 0) = Color(2.0f * kMax, -std::numeric_limits<float>::infinity(), 1e30f);
     FixedFilm sum;
-    sum.add(film, 1);
+    sum.add(film, 1, 1);
     EXPECT_EQ(sum.clamped, 3u);
     const Film mean = sum.mean(1);
     EXPECT_EQ(mean.beauty.at(0, 0), Color(kMax, -kMax, 3.0f));
@@ -214,7 +246,7 @@ TEST(FixedFilm, SumsThatWouldOverflowSaturateAndAreCounted) {
     Film film(1, 1, false);
     film.beauty.at(0, 0) = Color(16777216.0f, -16777216.0f, 1.0f);
     FixedFilm sum;
-    for (int i = 0; i < 130; ++i) sum.add(film, i + 1);
+    for (int i = 0; i < 130; ++i) sum.add(film, i + 1, 1);
     EXPECT_EQ(sum.clamped, 5u);
     EXPECT_EQ(sum.values[0], INT64_MAX);
     EXPECT_EQ(sum.values[1], INT64_MIN);

@@ -136,13 +136,15 @@ TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
     // The reason set later (auto's pilot, a sequence's first frame) keeps the schedule's.
     RunSetup t = s;
     t.set_reason("picked");
-    EXPECT_EQ(t.plan.integrator.reason, "picked; " + s.schedule);
+    EXPECT_EQ(t.plan.integrator.reason.rfind("picked; " + s.schedule, 0), 0u)
+        << t.plan.integrator.reason;
 }
 
-// Adaptive sampling (docs/design.md): the path-traced methods of a plain render, said in the
-// Plan; off for the photon gather, for iterations, and for a share of the tiles without ranks to
-// exchange its sums with (--part), each in the settings that ran.
-TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePathsOfOnePlainRender) {
+// Adaptive sampling (docs/design.md): the path-traced methods, in each iteration of a run that
+// has them too, said in the Plan; off for the photon gather, for iterations too small to allocate,
+// and for a share of the tiles without ranks to exchange its sums with (--part), each in the
+// settings that ran.
+TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePaths) {
     json doc = sunlit_cloud();
     doc["render"]["spp"] = 16;
     const auto resolved = [&](const std::string& integrator, int depth) {
@@ -160,8 +162,12 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePathsOfOnePlainRender) 
             << s.plan.integrator.reason;
     }
     EXPECT_FALSE(resolved("photon", 0).run.render.adaptive);  // the photon gather
-    doc["progressive"]["iterations"] = 4;
+    doc["progressive"]["iterations"] = 4;                     // 16 spp an iteration
+    EXPECT_TRUE(resolved("path", 0).run.render.adaptive);
+    EXPECT_TRUE(resolved("photon", 3).run.render.adaptive);
+    doc["render"]["spp"] = 4;
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["render"]["spp"] = 16;
     doc["progressive"]["iterations"] = 0;
     doc["render"]["adaptive"] = false;
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
