@@ -188,10 +188,6 @@ struct FixedFilm {
     void add(const Film& film, int index, int spp) {
         if (values.empty())
             zero(film.beauty.width, film.beauty.height, film.layered(), !film.bias_halves.empty());
-        auto add_image = [&](const Image& img, size_t n) {
-            for (const Color& c : img.pixels)
-                for (int k = 0; k < 3; ++k, ++n) values[n] = add_saturated(values[n], c[k]);
-        };
         const size_t pixels = size_t(width) * height, image = 3 * pixels,
                      first_batch = 1 + film.layers.size();
         const size_t samples = values.size() - pixels;
@@ -199,24 +195,24 @@ struct FixedFilm {
             values[samples + p] += film.pixel_spp.empty() ? spp : film.pixel_spp[p];
         add_image(film.beauty, 0);
         for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
-        const int batch = class_of(index, kBatches);
         const uint64_t counted = clamped;  // the beauty's clamps are counted once
-        add_image(film.beauty, (first_batch + batch) * image);
+        add_image(film.beauty, (first_batch + class_of(index, kBatches)) * image);
         clamped = counted;
         if (!bias) return;
         FOGMAP_ASSERT(film.bias_halves.size() == 4, "a sum with bias halves adds films with them");
-        for (size_t h = 0; h < 2; ++h) {
-            Image whole(width, height);
-            for (size_t p = 0; p < whole.pixels.size(); ++p) {
-                // Sample half s's share of the pixel's samples: its batches' (every other one).
-                const std::array<double, kBatches> shares = film.shares(p);
-                float share[2] = {0.0f, 0.0f};
-                for (size_t b = 0; b < size_t(kBatches); ++b) share[b % 2] += float(shares[b]);
-                whole.pixels[p] = share[0] * film.bias_halves[h].pixels[p] +
-                                  share[1] * film.bias_halves[2 + h].pixels[p];
-            }
-            add_image(whole, (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
+        // Photon half h's estimate over all the pixel's samples: its sample halves' weighted by
+        // their shares of them (sample half s holds every other batch).
+        std::array<Image, 2> whole{Image(width, height), Image(width, height)};
+        for (size_t p = 0; p < pixels; ++p) {
+            const std::array<double, kBatches> shares = film.shares(p);
+            float share[2] = {0.0f, 0.0f};
+            for (size_t b = 0; b < size_t(kBatches); ++b) share[b % 2] += float(shares[b]);
+            for (size_t h = 0; h < 2; ++h)
+                whole[h].pixels[p] = share[0] * film.bias_halves[h].pixels[p] +
+                                     share[1] * film.bias_halves[2 + h].pixels[p];
         }
+        for (size_t h = 0; h < 2; ++h)
+            add_image(whole[h], (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
         clamped = counted;
     }
     /// The mean over iterations 1 .. `count`, batched by iteration, and each pixel's samples.
@@ -248,6 +244,11 @@ struct FixedFilm {
     }
 
 private:
+    /// Adds `img` to the values from value `at` on.
+    void add_image(const Image& img, size_t at) {
+        for (const Color& c : img.pixels)
+            for (int k = 0; k < 3; ++k, ++at) values[at] = add_saturated(values[at], c[k]);
+    }
     /// Iteration `index` (from 1) falls in class (index − 1) mod `classes`: its batch (kBatches)
     /// and its bias halves' parity (2).
     static int class_of(int index, int classes) { return (index - 1) % classes; }
