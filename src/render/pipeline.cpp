@@ -145,9 +145,14 @@ GuideSettings guide_settings(const GatherParams& gather, int vertices) {
     return g;
 }
 
+/// A warning on stderr, as every warning is said.
+void say_warning(const std::string& text) {
+    std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+}
+
 /// Adds a warning to the report, said on stderr when `speak`.
 void warn_in(Report* report, bool speak, const std::string& text) {
-    if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text.c_str());
+    if (speak) say_warning(text);
     report->warnings.push_back(text);
 }
 
@@ -813,7 +818,7 @@ PipelineResult unbiased_instead(const SceneDesc& file, const PipelineResult& pho
                   "the target relMSE %.3g: the path tracer, unbiased, renders it instead",
                   e.bias_lo, e.iterations, e.target);
     const bool speak = !o.silent && (!o.ranks || o.ranks->rank() == 0);
-    if (speak) std::fprintf(stderr, "fogmap: warning: %s\n", text);
+    if (speak) say_warning(text);  // now, before the path run: the report takes it after
     const RunSetup path = resolve_picked(file, photon.setup, Integrator::Path, text);
     PipelineResult out = run_loaded(path, scene, o);
     double photon_s = 0.0;  // the photon run's phases but those the path run has again
