@@ -24,6 +24,14 @@ namespace fogmap {
 /// at any thread or rank count.
 inline constexpr int kBatches = 8;
 
+/// What a film keeps of the photon batches its samples read (render/film.h: FilmSample's
+/// photon_delta and bias_half): nothing; the maps' noise (Film::map_variance) and bias
+/// (Film::bias_halves); or their bias alone, for an iteration of a run of iterations, whose
+/// batches (whole iterations, each with maps of its own) hold the maps' noise already.
+enum class PhotonParts { None, NoiseAndBias, Bias };
+inline bool keeps_noise(PhotonParts p) { return p == PhotonParts::NoiseAndBias; }
+inline bool keeps_bias(PhotonParts p) { return p != PhotonParts::None; }
+
 /// How many of samples [0, m) of a pixel fall in batch b, batched by whole `unit`s: sample s in
 /// batch (s / unit) mod kBatches.
 inline int batch_upto(int m, int b, int unit) {

@@ -39,11 +39,6 @@ inline constexpr std::array kLayerNames{"direct",  "volume_single", "volume_mult
 static_assert(kLayerNames.size() == size_t(kLayerCount),
               "one name per Layer, and kLayerCount up to the last one");
 
-/// What a film keeps of the photon batches its samples read (FilmSample::photon_delta and
-/// bias_half): nothing, the map's noise (Film::map_variance), or its noise and bias (and
-/// Film::bias_halves).
-enum class PhotonParts { None, Noise, NoiseAndBias };
-
 /// One camera sample: its radiance per layer (layered integrators) or whole (beauty only).
 struct FilmSample {
     std::array<Color, kLayerCount> layers{};
@@ -428,8 +423,8 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
                  Film* film) {
     const int w = camera.width(), h = camera.height();
     const std::optional<ShutterDesc>& shutter = camera.shutter();
-    const bool layered = film->layered(), photon_batches = photon_parts != PhotonParts::None,
-               bias = photon_parts == PhotonParts::NoiseAndBias;
+    const bool layered = film->layered(), photon_batches = keeps_noise(photon_parts),
+               bias = keeps_bias(photon_parts);
     if (measure) {
         measure->squares.assign(size_t(w) * h, Color(0.0f));
         measure->work.assign(size_t(w) * h, 0.0f);
@@ -527,9 +522,8 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     const Timer timer;
     PassCounters counters;
     Film film(camera.width(), camera.height(), layered);
-    if (photon_parts != PhotonParts::None)
-        film.map_variance = Image(film.beauty.width, film.beauty.height);
-    if (photon_parts == PhotonParts::NoiseAndBias)
+    if (keeps_noise(photon_parts)) film.map_variance = Image(film.beauty.width, film.beauty.height);
+    if (keeps_bias(photon_parts))
         film.bias_halves.assign(4, Image(film.beauty.width, film.beauty.height));
     const int n1 = adaptive ? first_pass_spp(spp, unit) : spp;
     const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {

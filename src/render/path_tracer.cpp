@@ -511,9 +511,8 @@ static_assert(Photon::kBatches == kBatches, "FilmSample::photon_delta: one per p
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const PathPolicy& policy, TileShare tiles, bool layered) {
     const PathTracer tracer(scene, settings.max_depth, policy);
-    const PhotonParts parts = policy.kind() == MediumVertex::EndInMap && policy.end().batched()
-                                  ? PhotonParts::NoiseAndBias
-                                  : PhotonParts::None;
+    const PhotonParts parts =
+        policy.kind() == MediumVertex::EndInMap ? policy.end().parts() : PhotonParts::None;
     return render_film(
         Camera(scene.camera), settings.spp, settings.seed, tiles, layered, parts,
         strata_unit(settings.spp), settings.adaptive, quiet, stats,

@@ -236,13 +236,12 @@ float map_weight(const PixelSample& ps, int map_spp) {
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s, TileShare tiles, bool photon_batches) {
+                   RenderStats* stats, double* precompute_s, TileShare tiles, PhotonParts parts) {
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth,
-                                      photon_batches);
+                                      parts != PhotonParts::None);
     if (precompute_s) *precompute_s = integrator.precompute_s();
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true,
-        photon_batches ? PhotonParts::NoiseAndBias : PhotonParts::None,
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true, parts,
         map_step(settings.spp, settings.map_spp), /*adaptive=*/false, quiet, stats,
         [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {

@@ -84,11 +84,11 @@ int map_step(int spp, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
 /// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).
-/// *precompute_s (may be null) gets the integrator's precomputation time. `photon_batches`: as
-/// PhotonIntegrator's, the film then keeps the maps' noise (PhotonParts::Noise).
+/// *precompute_s (may be null) gets the integrator's precomputation time. `parts` other than
+/// None: the integrator's photon_batches, of which the film keeps `parts`.
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
                    RenderStats* stats, double* precompute_s, TileShare tiles = {},
-                   bool photon_batches = false);
+                   PhotonParts parts = PhotonParts::None);
 
 }  // namespace fogmap

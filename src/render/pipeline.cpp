@@ -368,7 +368,7 @@ private:
     Ranks* const ranks_;
     const int n_ranks_, my_rank_;
     const bool root_, speak_, quiet_, progressive_, quiet_pass_;
-    const bool photon_batches_;  ///< RunSetup::photon_batches
+    const PhotonParts photon_parts_;  ///< RunSetup::photon_parts
     const Timer own_timer_;
     const Timer& timer_;
     const int base_;  ///< iterations of the checkpoint resumed from
@@ -403,7 +403,7 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       quiet_(o.quiet || !speak_),
       progressive_(setup.progressive),
       quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
-      photon_batches_(setup.photon_batches()),
+      photon_parts_(setup.photon_parts()),
       timer_(o.timer ? *o.timer : own_timer_),
       base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
       sun_shadows_((o.shared ? o.shared : &own_tables_)->sun) {}
@@ -542,7 +542,7 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                                                          std::pow(gather.volume.radius / r1, 3.0f);
         it->volume_k = k;
         end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
-                    desc_.volume.gather_tau, &end_buffers_, photon_batches_);
+                    desc_.volume.gather_tau, &end_buffers_, photon_parts_);
         report_.precompute_nodes += end->nodes();
         if (end->wants_table() || end->batched()) {  // batched: RadiusBias's σ̄ too
             if (!sigma_table_) {
@@ -585,7 +585,7 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
         default: {
             double precompute_s = 0.0;
             Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
-                                      stats, &precompute_s, setup_.tiles, photon_batches_);
+                                      stats, &precompute_s, setup_.tiles, photon_parts_);
             if (precompute_s > 0.0) add_phase(&report_, "precompute", precompute_s);
             return film;
         }
@@ -797,6 +797,9 @@ PipelineResult RunLoop::run() {
         ran = cap > 0 ? std::min(ran + n_ranks_, cap) : ran + n_ranks_;
         if (last_round(ran, round, loop_start_s)) break;
     }
+    // The grids kept for a next iteration are not needed by the mean and the estimate.
+    end_buffers_ = VolumeMapEnd::Buffers{};
+    sigma_table_.reset();
     if (reduce()) finish_report();
     return std::move(out_);
 }

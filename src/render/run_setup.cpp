@@ -412,6 +412,11 @@ bool RunSetup::photon_batches() const {
             PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));
 }
 
+PhotonParts RunSetup::photon_parts() const {
+    if (!photon_batches()) return PhotonParts::None;
+    return progressive ? PhotonParts::Bias : PhotonParts::NoiseAndBias;
+}
+
 bool adaptive_sampling(const SceneDesc& desc, Method method) {
     const int spp = desc.render.spp;
     return desc.render.adaptive && method != Method::Gather &&

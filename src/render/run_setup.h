@@ -6,6 +6,7 @@
 // Pure functions of the description (and, for auto's pilot, of the loaded scene): deterministic.
 
 #include "photon/photon_settings.h"
+#include "render/batches.h"
 #include "render/tiles.h"
 #include "scene/plan.h"
 #include "scene/scene_desc.h"
@@ -61,6 +62,9 @@ struct RunSetup {
     /// their own, and its sum keeps the bias alone: FixedFilm::bias); every lookup of the photon
     /// gather must be able to (PhotonIntegrator::batches_supported).
     bool photon_batches() const;
+    /// What an iteration's film keeps of them: none, or the maps' noise and bias, or in a run of
+    /// iterations their bias alone (the sum keeps no noise of one iteration's maps).
+    PhotonParts photon_parts() const;
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's, and whether
     /// adaptive sampling runs).
     void set_reason(std::string why);

@@ -196,7 +196,7 @@ Color SigmaTable::cube_average(const Vec3& x, float edge) const {
 }
 
 VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius,
-                           int depth, float k, float max_tau, Buffers* recycle, bool batched)
+                           int depth, float k, float max_tau, Buffers* recycle, PhotonParts parts)
     : recycle_(recycle),
       map_(map),
       radius_(radius),
@@ -205,7 +205,7 @@ VolumeMapEnd::VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& medi
       phase_fits_(moment_grid_fits(media)),
       k_(k),
       max_tau_(max_tau),
-      batched_(batched) {
+      parts_(parts) {
     if (recycle) {  // given back whole by the destructor, whatever is built here
         slot_ = std::move(recycle->slot);
         moments_ = std::move(recycle->moments);
@@ -243,7 +243,7 @@ bool VolumeMapEnd::assign_slots() {
     slot_.assign(density_.nodes(), -1);
     for (size_t i = 0; i < nodes.size(); ++i) slot_[nodes[i]] = static_cast<int32_t>(i);
     moments_.assign(nodes.size(), Moments{});
-    if (batched_ && phase_fits_) {
+    if (batched() && phase_fits_) {
         if (recycle_) reserve_recycled(&batch_power_, nodes.size());
         batch_power_.assign(nodes.size(), BatchSums{});
         kappa_.assign(nodes.size(), kBallKappa);  // σ̄'s ratio 1 until set_table
@@ -417,7 +417,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
     Moments m;
     KernelDensity::Corners c;
     if (!interpolate(x, &density, &m, &c)) return Color(0.0f);
-    if (!batched_) parts = nullptr;
+    if (!batched()) parts = nullptr;
     // LeanCorrection (header), where the grid holds moments; bounded by half the estimate.
     const auto corrected = [&](const Color& e, float rho) {
         if (!interpolates()) return e;

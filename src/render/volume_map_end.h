@@ -16,6 +16,7 @@
 #include "media/phase.h"
 #include "photon/estimators.h"
 #include "photon/photon_pass.h"
+#include "render/batches.h"
 #include "scene/scene_desc.h"
 
 #include <array>
@@ -106,12 +107,13 @@ public:
     /// With k > 0 and a table (set_table), lookups where the grid's ball holds more than 2k
     /// photons gather within a smaller radius instead (see AdaptiveRadius below).
     /// `recycle` (may be null): memory the previous map's grids left (see Buffers), taken and
-    /// given back when this one is destroyed. `batched`: lookups can also say each photon
-    /// batch's share and each photon half's bias (Parts: PhotonBatches, RadiusBias below).
+    /// given back when this one is destroyed. `parts` other than None: lookups can also say each
+    /// photon batch's share and each photon half's bias (Parts: PhotonBatches, RadiusBias below),
+    /// of which the film keeps `parts`.
     struct Buffers;
     VolumeMapEnd(const PhotonMap& map, const std::vector<Medium>& media, float radius, int depth,
                  float k = 0.0f, float max_tau = 0.0f, Buffers* recycle = nullptr,
-                 bool batched = false);
+                 PhotonParts parts = PhotonParts::None);
     ~VolumeMapEnd();
     VolumeMapEnd(const VolumeMapEnd&) = delete;
     VolumeMapEnd& operator=(const VolumeMapEnd&) = delete;
@@ -142,7 +144,9 @@ public:
     /// `parts` (may be null): a batched map's parts (an unbatched map's: shares 1, bias 0).
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase, NeighborList& scratch,
                       Parts* parts = nullptr) const;
-    bool batched() const { return batched_; }
+    bool batched() const { return parts_ != PhotonParts::None; }
+    /// What a film of samples that end here keeps of the lookups' parts.
+    PhotonParts parts() const { return parts_; }
 
     // PhotonBatches. Every photon is in one of Photon::kBatches batches of whole paths, so the
     // photons of one batch make an independent map kBatches times sparser. A lookup's estimate
@@ -285,7 +289,7 @@ private:
     float k_;
     float max_tau_;
     bool crowded_anywhere_ = false;
-    bool batched_;
+    PhotonParts parts_;
 };
 
 }  // namespace fogmap

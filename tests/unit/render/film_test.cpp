@@ -339,10 +339,10 @@ TEST(RenderFilm, PixelsHoldTheMeanOverSppAndLayersAddUpToTheBeauty) {
 // samples share, whose variance of the mean the pairs estimate as Σ_t d_t² / (K (K − 1)) =
 // 42 a² / 56; its bias halves are (x, 2x) in each sample half. One sample's parts are infinite:
 // they are left out, and its pixel's map variance stays finite.
-TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
-    const Film film = render_film(
-        Camera(camera_desc()), kSpp, 99, TileShare{}, false, PhotonParts::NoiseAndBias, 1, false,
-        true, nullptr, [] { return State{}; },
+Film render_photon_parts(PhotonParts parts) {
+    return render_film(
+        Camera(camera_desc()), kSpp, 99, TileShare{}, false, parts, 1, false, true, nullptr,
+        [] { return State{}; },
         [&](const Ray&, Rng&, State&, const PixelSample& ps) {
             FilmSample f;
             f.beauty = Color(1.0f);
@@ -353,6 +353,16 @@ TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
                 f.photon_delta[3].x = f.bias_half[1].y = std::numeric_limits<float>::infinity();
             return f;
         });
+}
+
+TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
+    const Film film = render_photon_parts(PhotonParts::NoiseAndBias);
+    // An iteration of a run of iterations keeps the bias halves alone, the same.
+    const Film bias_alone = render_photon_parts(PhotonParts::Bias);
+    EXPECT_TRUE(bias_alone.map_variance.pixels.empty());
+    ASSERT_EQ(bias_alone.bias_halves.size(), 4u);
+    for (int i = 0; i < 4; ++i)
+        EXPECT_EQ(bias_alone.bias_halves[size_t(i)].pixels, film.bias_halves[size_t(i)].pixels);
     ASSERT_EQ(film.bias_halves.size(), 4u);
     for (int y = 0; y < kH; ++y)
         for (int x = 0; x < kW; ++x) {

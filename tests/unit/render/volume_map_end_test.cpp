@@ -529,7 +529,8 @@ TEST(VolumeMapEnd, ABatchsShareOfALookupIsTheLookupOfItsPhotonsAlone) {
         const std::vector<Medium> media{Medium::homogeneous(
             {Color(2.0f, 1.0f, 0.5f), Color(0.1f), g}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
         const float radius = 0.3f;
-        const VolumeMapEnd batched(map_all, media, radius, 2, 0.0f, 0.0f, nullptr, true);
+        const VolumeMapEnd batched(map_all, media, radius, 2, 0.0f, 0.0f, nullptr,
+                                   PhotonParts::NoiseAndBias);
         const VolumeMapEnd own(map_alone, media, radius, 2);
         ASSERT_EQ(batched.interpolates(), g == 0.0f);
         const PhaseMix phase(g);
@@ -575,7 +576,8 @@ TEST(VolumeMapEnd, EachPhotonHalfEstimatesTheBiasOfTheBallsBlur) {
         const std::vector<Medium> media{
             Medium::homogeneous({Color(1.0f), Color(0.1f), g}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
         const float radius = 0.3f;
-        const VolumeMapEnd end(map, media, radius, 2, 0.0f, 0.0f, nullptr, true);
+        const VolumeMapEnd end(map, media, radius, 2, 0.0f, 0.0f, nullptr,
+                               PhotonParts::NoiseAndBias);
         ASSERT_EQ(end.interpolates(), g == 0.0f);
         const PhaseMix phase(g);
         NeighborList scratch;
