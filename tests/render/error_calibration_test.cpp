@@ -29,6 +29,7 @@ struct Case {
     std::string scene;          ///< under the source folder
     int width = 0, height = 0;  ///< 0: the scene's
     int reference_spp = 0;
+    std::vector<std::string> runs;  ///< settings of the calibrated runs (not the reference's)
 };
 
 struct Run {
@@ -82,6 +83,7 @@ Row calibrate(const Case& c, const Reference& ref, const std::string& integrator
     std::vector<double> ratios;
     for (int seed = 1; seed <= seeds; ++seed) {
         std::vector<std::string> o = size_overrides(c);
+        o.insert(o.end(), c.runs.begin(), c.runs.end());
         if (!integrator.empty()) o.push_back("render.integrator=\"" + integrator + "\"");
         o.push_back("render.spp=" + std::to_string(spp));
         o.push_back("render.seed=" + std::to_string(seed));
@@ -119,6 +121,19 @@ TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
         EXPECT_GE(row.median_ratio, 0.8) << row.integrator;
         EXPECT_LE(row.median_ratio, 1.25) << row.integrator;
     }
+}
+
+// A run of iterations that allocate their own samples (adaptive sampling in each, 16 spp: a first
+// pass of 8): the sum weighs each iteration alike whatever a pixel's counts, and its estimate
+// from the iterations' batches holds the truth as a plain render's does.
+TEST(ErrorCalibration, IterationsThatAllocateTheirOwnSamplesAreCalibrated) {
+    Case iterations = kSmoke;
+    iterations.runs = {"progressive.iterations=8"};
+    const Row row = calibrate(iterations, reference(kSmoke), "path", 16, 10);
+    EXPECT_GE(row.covered, 8);
+    EXPECT_EQ(row.unresolved, 0);
+    EXPECT_GE(row.median_ratio, 0.75);
+    EXPECT_LE(row.median_ratio, 1.33);
 }
 
 /// smoke.json at 160 x 90 with `settings`: its default's bias² is not flagged (the interval holds
