@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -41,6 +42,21 @@ protected:
         return test::run_fogmap(args, dir_, ranks > 0 ? mpirun : "");
     }
     std::string at(const std::string& name) const { return (dir_ / name).string(); }
+    /// `args` followed by an output path, run at each of `ranks` rank counts: each must exit 0
+    /// and write `expected`'s bytes (one process's EXR); `check` (may do nothing) sees each run.
+    template <class Check>
+    void expect_same_exr(const std::string& args, const std::string& expected,
+                         std::initializer_list<int> ranks, Check&& check) {
+        const std::string bytes = test::slurp(expected);
+        for (int n : ranks) {
+            SCOPED_TRACE(std::to_string(n) + " ranks");
+            const std::string exr = at("ranks" + std::to_string(n) + ".exr");
+            const test::RunResult r = run(args + exr, n);
+            ASSERT_EQ(r.code, 0) << r.err;
+            EXPECT_TRUE(test::slurp(exr) == bytes) << "the EXR differs from one process's";
+            check(r, n);
+        }
+    }
 
     test::TempDir tmp_{"fogmap_mpi"};
     const fs::path dir_ = tmp_.path();
@@ -73,20 +89,14 @@ TEST_F(Mpi, ProgressiveIterationsSplitOverRanksGiveTheSameImage) {
                              "--set progressive.iterations=5 -o ";
     const test::RunResult plain = run(args + at("plain.exr"), 0);
     ASSERT_EQ(plain.code, 0) << plain.err;
-    const std::string expected = test::slurp(at("plain.exr"));
-    for (int ranks : {1, 2, 3}) {
-        SCOPED_TRACE(std::to_string(ranks) + " ranks");
-        const std::string exr = at("r" + std::to_string(ranks) + ".exr");
-        const test::RunResult r = run(args + exr, ranks);
-        ASSERT_EQ(r.code, 0) << r.err;
-        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
+    expect_same_exr(args, at("plain.exr"), {1, 2, 3}, [&](const test::RunResult& r, int ranks) {
         EXPECT_EQ(test::report_line(r.out, "photons emitted"),
                   test::report_line(plain.out, "photons emitted"));
         EXPECT_EQ(test::report_line(r.out, "samples"), test::report_line(plain.out, "samples"));
         if (ranks > 1) {
             EXPECT_NE(r.out.find(std::to_string(ranks) + " MPI ranks"), std::string::npos) << r.out;
         }
-    }
+    });
 }
 
 TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
@@ -100,15 +110,9 @@ TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
     ASSERT_EQ(plain.code, 0) << plain.err;
     const std::string reached = test::report_line(plain.out, "error estimate: target");
     ASSERT_NE(reached.find("reached after 16 iterations"), std::string::npos) << plain.out;
-    const std::string expected = test::slurp(at("plain.exr"));
-    for (int ranks : {1, 2, 3}) {
-        SCOPED_TRACE(std::to_string(ranks) + " ranks");
-        const std::string exr = at("t" + std::to_string(ranks) + ".exr");
-        const test::RunResult r = run(args + exr, ranks);
-        ASSERT_EQ(r.code, 0) << r.err;
-        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
+    expect_same_exr(args, at("plain.exr"), {1, 2, 3}, [&](const test::RunResult& r, int) {
         EXPECT_EQ(test::report_line(r.out, "error estimate: target"), reached);
-    }
+    });
 }
 
 TEST_F(Mpi, AutosSwitchToThePathTracerIsTheSameOnEveryRankCount) {
@@ -125,14 +129,7 @@ TEST_F(Mpi, AutosSwitchToThePathTracerIsTheSameOnEveryRankCount) {
     ASSERT_NE(plain.out.find("integrator: path (auto: photon mapping's bias² alone"),
               std::string::npos)
         << plain.out;
-    const std::string expected = test::slurp(at("plain.exr"));
-    for (int ranks : {2, 3}) {
-        SCOPED_TRACE(std::to_string(ranks) + " ranks");
-        const std::string exr = at("a" + std::to_string(ranks) + ".exr");
-        const test::RunResult r = run(args + exr, ranks);
-        ASSERT_EQ(r.code, 0) << r.err;
-        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
-    }
+    expect_same_exr(args, at("plain.exr"), {2, 3}, [](const test::RunResult&, int) {});
 }
 
 TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
@@ -151,18 +148,11 @@ TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
                                  integrator + " -o ";
         const test::RunResult plain = run(args + at("plain.exr"), 0);
         ASSERT_EQ(plain.code, 0) << plain.err;
-        const std::string expected = test::slurp(at("plain.exr"));
-        for (int ranks : {1, 2, 3}) {
-            SCOPED_TRACE(std::string(integrator) + ", " + std::to_string(ranks) + " ranks");
-            const std::string exr = at("p" + std::to_string(ranks) + ".exr");
-            const test::RunResult r = run(args + exr, ranks);
-            ASSERT_EQ(r.code, 0) << r.err;
-            EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from one process's";
-            EXPECT_EQ(test::report_line(r.out, "photons emitted"),
-                      test::report_line(plain.out, "photons emitted"));
-            EXPECT_EQ(test::report_line(r.out, "samples"), test::report_line(plain.out, "samples"));
-            EXPECT_EQ(test::report_line(r.out, "rays"), test::report_line(plain.out, "rays"));
-        }
+        SCOPED_TRACE(integrator);
+        expect_same_exr(args, at("plain.exr"), {1, 2, 3}, [&](const test::RunResult& r, int) {
+            for (const char* line : {"photons emitted", "samples", "rays"})
+                EXPECT_EQ(test::report_line(r.out, line), test::report_line(plain.out, line));
+        });
     }
 }
 
@@ -416,13 +406,7 @@ TEST_F(Mpi, IterationsAllocatingTheirOwnSamplesGiveTheSameImageAtAnyRankCount) {
                             [](const Color& a, const Color& b) { return a.x < b.x; });
     EXPECT_LT(least->x, most->x) << "every pixel took the same samples";
     EXPECT_GE(least->x, 3.0f * 8.0f);  // at least each iteration's first pass, 8 spp
-    const std::string expected = test::slurp(at("plain.exr"));
-    for (int ranks : {2, 3}) {
-        SCOPED_TRACE(std::to_string(ranks) + " ranks");
-        const std::string exr = at("r" + std::to_string(ranks) + ".exr");
-        ASSERT_EQ(run(args + exr, ranks).code, 0);
-        EXPECT_TRUE(test::slurp(exr) == expected) << "the EXR differs from the run without MPI";
-    }
+    expect_same_exr(args, at("plain.exr"), {2, 3}, [](const test::RunResult&, int) {});
 }
 
 TEST_F(Mpi, AResumedRunEndsWithTheImageOfAnUninterruptedOne) {
