@@ -94,9 +94,12 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     // (FixedFilm: 8 bytes a value, no map variance, and its pixels' samples); the reference and,
     // for progressive runs, the running mean compared with it; the estimate's variance and
     // samples layers; the PNG's 8-bit RGB and its encoding.
-    const int sum_images = layers - (setup.photon_batches() ? 1 : 0);
-    const double sum = setup.progressive ? pixels * (2 * sizeof(Color) * sum_images + 8.0)
-                                         : pixels * sizeof(Color) * layers;
+    const double sum =
+        setup.progressive
+            ? sizeof(int64_t) * double(FixedFilm::value_count(desc.camera.width, desc.camera.height,
+                                                              /*layered=*/true,
+                                                              setup.photon_batches()))
+            : pixels * sizeof(Color) * layers;
     const double films = pixels * sizeof(Color) * layers + sum;
     // Adaptive sampling's first-pass figures and allocation (render/adaptive.cpp): 56 bytes a
     // pixel at most. The error estimate's weights (render/error_estimate.cpp): 9 images at most.
