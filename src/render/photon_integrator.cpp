@@ -225,8 +225,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
 
 int map_step(int spp, int map_spp) { return map_spp > 0 ? std::max(1, spp / map_spp) : 1; }
 
-float map_weight(const PixelSample& ps, int map_spp) {
-    const int step = map_step(ps.spp, map_spp);
+float map_weight(const PixelSample& ps, int step) {
     if (step == 1) return 1.0f;
     const int offset = static_cast<int>(mix64(ps.key ^ stream::kMapSamples) % uint64_t(step));
     const int blocks = (ps.spp + step - 1) / step, block = ps.s / step;
@@ -240,13 +239,13 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth,
                                       parts != PhotonParts::None);
     if (precompute_s) *precompute_s = integrator.precompute_s();
+    const int step = map_step(settings.spp, settings.map_spp);
     return render_film(
-        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true, parts,
-        map_step(settings.spp, settings.map_spp), /*adaptive=*/false, quiet, stats,
-        [&] { return integrator.make_state(); },
+        Camera(scene.camera), settings.spp, settings.seed, tiles, /*layered=*/true, parts, step,
+        settings.adaptive, quiet, stats, [&] { return integrator.make_state(); },
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             set_time(ts.media, ps.time);
-            return integrator.radiance(ray, rng, ts, map_weight(ps, settings.map_spp));
+            return integrator.radiance(ray, rng, ts, map_weight(ps, step));
         });
 }
 

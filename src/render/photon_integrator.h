@@ -70,20 +70,24 @@ private:
     bool emissive_ = false;  ///< some medium emits: gather rays collect its emission
 };
 
-/// The weight of sample ps's photon-map lookups when map_spp of a pixel's samples make them
-/// (advanced.map_spp; 0 = all, weight 1): one sample in each block of step = spp / map_spp
-/// (integer division) consecutive samples, the block's batch unit (render_photon): sample s of
-/// block B = s / step is chosen when (s + offset + shift_B) % step == 0, with the pixel's offset
-/// uniform in [0, step) (from ps.key), so every sample is chosen with probability 1/step and
-/// weighs step (Horvitz–Thompson: unbiased). shift_B = batch(B) step / min(blocks, kBatches)
-/// spreads the chosen samples of the batches' blocks, which share their coarse columns
-/// (render/batches.h), over the pixel. 0 for the others.
-float map_weight(const PixelSample& ps, int map_spp);
-/// map_weight's step: every block of step consecutive samples holds one chosen sample.
+/// The weight of sample ps's photon-map lookups when one sample in each block of `step`
+/// consecutive samples makes them (step = map_step of the render's spp; 1: every sample, weight
+/// 1). The block is the batches' unit (render_photon), and step is the render's, not the pixel's
+/// own count (ps.spp), which adaptive sampling sets pixel by pixel: a pixel reads the maps once
+/// in each unit of its samples, however many it takes. Sample s of block B = s / step is chosen
+/// when (s + offset + shift_B) % step == 0, with the pixel's offset uniform in [0, step) (from
+/// ps.key), so every sample is chosen with probability 1/step and weighs step (Horvitz–Thompson:
+/// unbiased). shift_B = batch(B) step / min(blocks, kBatches), blocks the pixel's, spreads the
+/// chosen samples of the batches' blocks, which share their coarse columns (render/batches.h),
+/// over the pixel. 0 for the others.
+float map_weight(const PixelSample& ps, int step);
+/// The step of a render of spp samples a pixel of which about map_spp read the photon maps
+/// (advanced.map_spp; 0 = all): spp / map_spp, at least 1.
 int map_step(int spp, int map_spp);
 
 /// Renders scene.camera with the photon integrator into a layered film: settings.spp samples
-/// per pixel, settings.seed, settings.max_depth (the worker count is the caller's ThreadLimit).
+/// per pixel (or their work, with settings.adaptive: render_film), settings.seed,
+/// settings.max_depth (the worker count is the caller's ThreadLimit).
 /// *precompute_s (may be null) gets the integrator's precomputation time. `parts` other than
 /// None: the integrator's photon_batches, of which the film keeps `parts`.
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,

@@ -417,10 +417,14 @@ PhotonParts RunSetup::photon_parts() const {
     return progressive ? PhotonParts::Bias : PhotonParts::NoiseAndBias;
 }
 
+int sample_unit(const SceneDesc& desc, Method method) {
+    const int spp = desc.render.spp;
+    return method == Method::Gather ? map_step(spp, desc.render.map_spp) : strata_unit(spp);
+}
+
 bool adaptive_sampling(const SceneDesc& desc, Method method) {
     const int spp = desc.render.spp;
-    return desc.render.adaptive && method != Method::Gather &&
-           first_pass_spp(spp, strata_unit(spp)) < spp;
+    return desc.render.adaptive && first_pass_spp(spp, sample_unit(desc, method)) < spp;
 }
 
 void RunSetup::share_tiles(TileShare share) {
@@ -438,7 +442,7 @@ void RunSetup::set_reason(std::string why) {
     if (run.render.adaptive)
         plan.integrator.reason +=
             std::string("; adaptive sampling") + (progressive ? " in each iteration" : "") +
-            ": a first pass of " + std::to_string(first_pass_spp(spp, strata_unit(spp))) +
+            ": a first pass of " + std::to_string(first_pass_spp(spp, sample_unit(run, method))) +
             " spp, then the rest of render.spp's work where it shows the error";
 }
 

@@ -145,10 +145,14 @@ IterationSize iteration_size(const SceneDesc& desc);
 /// function weighs few of the gathered photons; otherwise volume.k (its default when not given).
 int volume_k(const SceneDesc& desc);
 
-/// Whether render.adaptive applies to `desc` run by `method`: camera paths traced as paths (the
-/// photon gather reads its maps at advanced.map_spp samples a pixel, however many it takes), at
-/// render.spp (an iteration's, where the run has iterations: each allocates its own) enough to
-/// leave a first pass something to allocate (first_pass_spp).
+/// The consecutive samples of a pixel that make one unit of its estimate when `method` renders
+/// `desc` (render_film's `unit`): the photon gather's map step (one sample of each unit reads the
+/// maps: photon_integrator.h, map_step), the path tracer's strata groups otherwise (strata_unit).
+int sample_unit(const SceneDesc& desc, Method method);
+
+/// Whether render.adaptive applies to `desc` run by `method`: at render.spp (an iteration's,
+/// where the run has iterations: each allocates its own) enough to leave a first pass of whole
+/// units (sample_unit) something to allocate (first_pass_spp).
 bool adaptive_sampling(const SceneDesc& desc, Method method);
 
 /// resolve_run(desc).plan.

@@ -136,11 +136,12 @@ TEST_F(Mpi, PlainRendersAreSharedOverRanksAndGiveTheSameImage) {
     // Every rank traces every n-th chunk of each photon round and renders every n-th tile; the
     // EXR is that of one process, for the photon maps (with points and with photon beams, which
     // the ranks exchange beside the photons; seen from camera rays and ending camera paths), the
-    // guided and the path tracer.
+    // guided and the path tracer; and the photon gather at 8 spp, whose adaptive sampling
+    // exchanges the image-wide sums between its passes.
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     for (const char* integrator :
          {"photon", "photon --set volume.estimator=photon_beams",
-          "photon --set volume.gather_depth=2", "guided", "path"}) {
+          "photon --set volume.gather_depth=2", "guided", "path", "photon --set render.spp=8"}) {
         const std::string args = "render -q " + scene +
                                  " --set camera.width=40 --set camera.height=24 --set "
                                  "render.spp=2 --set photons.volume=8000 --set "

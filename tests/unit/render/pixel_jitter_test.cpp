@@ -275,7 +275,7 @@ TEST(MapWeight, EverySampleIsChosenWithProbabilityOneOverStep) {
             std::vector<int> quarters(4, 0);
             const std::vector<Vec2> pos = pass_positions(0, spp, step, key, rng);
             for (int s = 0; s < spp; ++s) {
-                const float w = map_weight(PixelSample{s, spp, key}, map_spp);
+                const float w = map_weight(PixelSample{s, spp, key}, map_step(spp, map_spp));
                 if (w == 0.0f) continue;
                 ASSERT_EQ(w, static_cast<float>(step));
                 ++in_block[size_t(s / step)];
@@ -297,9 +297,38 @@ TEST(MapWeight, EverySampleIsChosenWithProbabilityOneOverStep) {
     }
     // map_spp 0 or >= spp: every sample, weight 1.
     for (int s = 0; s < 8; ++s) {
-        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 0), 1.0f);
-        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 8), 1.0f);
-        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, 20), 1.0f);
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, map_step(8, 0)), 1.0f);
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, map_step(8, 8)), 1.0f);
+        EXPECT_EQ(map_weight(PixelSample{s, 8, 123}, map_step(8, 20)), 1.0f);
+    }
+}
+
+// Adaptive sampling with the photon gather (docs/design.md, Where it applies): a pixel's samples
+// come in a first pass of n1 and a second up to its own count n (PixelSample::spp is the pass's
+// count), while the step stays the render's. Each pass's whole blocks of step samples then hold
+// one chosen sample each, every sample index is chosen with probability 1 / step (binomial,
+// within 5 standard deviations), so a pixel of n samples reads the maps n / step times, whatever
+// its count, each reading weighing step.
+TEST(MapWeight, APixelOfItsOwnCountReadsTheMapsOnceInEachStepOfItsSamples) {
+    constexpr int kPixels = 20000, kStep = 4, kFirst = 8;  // 16 spp, map_spp 4
+    for (const int n : {8, 12, 40, 256}) {
+        SCOPED_TRACE(std::to_string(n) + " samples in the pixel");
+        std::vector<int> chosen(size_t(n), 0);
+        for (int p = 0; p < kPixels; ++p) {
+            const uint64_t key = pixel_key(11, static_cast<uint64_t>(p));
+            std::vector<int> in_block(size_t(n / kStep), 0);
+            for (int s = 0; s < n; ++s) {
+                const int total = s < kFirst ? kFirst : n;  // the pass's PixelSample::spp
+                const float w = map_weight(PixelSample{s, total, key}, kStep);
+                if (w == 0.0f) continue;
+                ASSERT_EQ(w, static_cast<float>(kStep));
+                ++in_block[size_t(s / kStep)];
+                ++chosen[size_t(s)];
+            }
+            for (size_t b = 0; b < in_block.size(); ++b) ASSERT_EQ(in_block[b], 1) << "block " << b;
+        }
+        const double q = 1.0 / kStep, sd = std::sqrt(kPixels * q * (1.0 - q));
+        for (int s = 0; s < n; ++s) EXPECT_NEAR(chosen[size_t(s)], kPixels * q, 5.0 * sd) << s;
     }
 }
 

@@ -140,11 +140,12 @@ TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
         << t.plan.integrator.reason;
 }
 
-// Adaptive sampling (docs/design.md): the path-traced methods, in each iteration of a run that
-// has them too, said in the Plan; off for the photon gather, for iterations too small to allocate,
-// and for a share of the tiles without ranks to exchange its sums with (--part), each in the
-// settings that ran.
-TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePaths) {
+// Adaptive sampling (docs/design.md): every integrator, in each iteration of a run that has
+// them too, said in the Plan; off for iterations too small to allocate (a first pass of two of
+// the method's units: strata groups of 4, the photon gather's map step spp / map_spp), and for a
+// share of the tiles without ranks to exchange its sums with (--part), each in the settings that
+// ran.
+TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     json doc = sunlit_cloud();
     doc["render"]["spp"] = 16;
     const auto resolved = [&](const std::string& integrator, int depth) {
@@ -152,8 +153,8 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePaths) {
         doc["volume"]["gather_depth"] = depth;
         return resolve_run(scene(doc));
     };
-    for (const auto& [integrator, depth] :
-         {std::pair{"path", 0}, std::pair{"guided", 0}, std::pair{"photon", 3}}) {
+    for (const auto& [integrator, depth] : {std::pair{"path", 0}, std::pair{"guided", 0},
+                                            std::pair{"photon", 3}, std::pair{"photon", 0}}) {
         const RunSetup s = resolved(integrator, depth);
         EXPECT_TRUE(s.run.render.adaptive) << integrator;
         EXPECT_TRUE(settings_json(s)["render"]["adaptive"].get<bool>());
@@ -161,8 +162,7 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePaths) {
                   std::string::npos)
             << s.plan.integrator.reason;
     }
-    EXPECT_FALSE(resolved("photon", 0).run.render.adaptive);  // the photon gather
-    doc["progressive"]["iterations"] = 4;                     // 16 spp an iteration
+    doc["progressive"]["iterations"] = 4;  // 16 spp an iteration
     EXPECT_TRUE(resolved("path", 0).run.render.adaptive);
     EXPECT_TRUE(resolved("photon", 3).run.render.adaptive);
     doc["render"]["spp"] = 4;
@@ -176,6 +176,13 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAPixelsSamplesArePaths) {
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
     doc["render"]["spp"] = 8;  // a first pass of two strata groups would take them all
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    const RunSetup gather = resolved("photon", 0);  // two map steps of 2 take half
+    EXPECT_TRUE(gather.run.render.adaptive);
+    EXPECT_NE(gather.plan.integrator.reason.find("a first pass of 4 spp"), std::string::npos)
+        << gather.plan.integrator.reason;
+    doc["advanced"]["map_spp"] = 0;  // every sample reads the maps: a unit of one
+    EXPECT_TRUE(resolved("photon", 0).run.render.adaptive);
+    doc["advanced"].erase("map_spp");
     doc["render"]["spp"] = 16;
 
     RunSetup part = resolved("path", 0);

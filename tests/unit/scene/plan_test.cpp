@@ -246,7 +246,8 @@ TEST(Plan, GlassFloorAndFogTurnEverythingOn) {
     EXPECT_TRUE(p.global_map.on);
     EXPECT_TRUE(p.caustic_map.on);
     EXPECT_EQ(plan_text(p),
-              "integrator: photon (scene)\n"
+              "integrator: photon (scene; adaptive sampling: a first pass of 8 spp, then the rest "
+              "of render.spp's work where it shows the error)\n"
               "Embree scene: built (2 shapes)\n"
               "ray marching: used (1 medium; camera rays and photon free paths march)\n"
               "volume light: skipped (no medium emits)\n"
@@ -549,14 +550,16 @@ TEST(Plan, AutoPicksTheIntegratorAndSaysWhy) {
     named["render"]["integrator"] = "photon";
     SceneDesc d = scene_desc_from_json(named, "scene.json");
     validate(d);
-    EXPECT_EQ(line(make_plan(d), kIntegrator), "integrator: photon (scene)");
+    EXPECT_EQ(line(make_plan(d), kIntegrator),
+              "integrator: photon (scene; adaptive sampling: a first pass of 8 spp, then the rest "
+              "of render.spp's work where it shows the error)");
 }
 
 TEST(Plan, JsonHasOneEntryPerItem) {
     const Plan p = make_plan(scene(smoke_only()));
     const json j = plan_json(p);
     EXPECT_EQ(j, json::parse(R"({
-      "integrator": {"name": "photon", "reason": "scene"},
+      "integrator": {"name": "photon", "reason": "scene; adaptive sampling: a first pass of 8 spp, then the rest of render.spp's work where it shows the error"},
       "embree_scene": {"on": false, "reason": "no surfaces"},
       "ray_marching": {"on": true, "reason": "1 medium; camera rays and photon free paths march"},
       "volume_light": {"on": false, "reason": "no medium emits"},
