@@ -330,17 +330,28 @@ IterationSize iteration_size(const SceneDesc& desc) {
         const int iterations = desc.progressive.iterations;
         if (given > 0)
             return {given, iterations, "progressive: " + text(given, "advanced.iteration_spp")};
-        if (!rule)
-            return {spp, iterations,
-                    "progressive: " + text(spp, "render.spp: the photon budgets are the scene's")};
-        const uint64_t per_spp = pixels * uint64_t(spp);
-        const uint64_t times = std::max<uint64_t>(1, (kIterationSamples + per_spp - 1) / per_spp);
-        const int n = static_cast<int>(std::min<uint64_t>(times * spp, uint64_t(1) << 30));
-        return {n, iterations,
+        const auto times_spp = [&](uint64_t times, const std::string& why) {
+            const int n = static_cast<int>(std::min<uint64_t>(times * spp, uint64_t(1) << 30));
+            return IterationSize{
+                n, iterations,
                 "progressive: " + text(n, (n == spp ? std::string("render.spp")
                                                     : "render.spp " + std::to_string(spp) +
                                                           " times " + std::to_string(times)) +
-                                              ": " + samples)};
+                                              ": " + why)};
+        };
+        if (rule) {
+            const uint64_t per_spp = pixels * uint64_t(spp);
+            return times_spp(std::max<uint64_t>(1, (kIterationSamples + per_spp - 1) / per_spp),
+                             samples);
+        }
+        if (method_of(desc) == Method::Gather && spp < kGatherIterationSpp &&
+            !plan_volume_light(desc).on)
+            return times_spp((kGatherIterationSpp + spp - 1) / spp,
+                             "at least " + std::to_string(kGatherIterationSpp) +
+                                 " spp: the photon pass and the map lookups are an iteration's "
+                                 "own, its other samples cheap");
+        return {spp, iterations,
+                "progressive: " + text(spp, "render.spp: the photon budgets are the scene's")};
     }
     const std::string split = "render.spp " + std::to_string(spp) + " as ";
     if (given > 0 && given < spp) {

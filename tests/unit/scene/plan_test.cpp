@@ -374,8 +374,8 @@ TEST(Plan, VolumeBudgetIsAPhotonPerAttemptUnlessTheSceneGivesOne) {
 
 // A progressive iteration's samples: the least multiple of render.spp that gives
 // kIterationSamples camera samples where the volume map's photons follow the samples (the
-// attempts rule's budget); the scene's render.spp where they do not; advanced.iteration_spp when
-// given.
+// attempts rule's budget); for the photon gather where no medium emits the least multiple that
+// gives kGatherIterationSpp; the scene's render.spp otherwise; advanced.iteration_spp when given.
 TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     json doc = ending_in_the_map();  // 400 x 300 = 120 000 pixels
     doc["progressive"]["time_budget"] = 10;
@@ -405,8 +405,22 @@ TEST(Plan, IterationsTakeAMillionCameraSamplesWhereThePhotonsFollowThem) {
     EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
     doc["photons"].erase("volume");
     EXPECT_EQ(iteration_size(scene(doc)).spp, 12);
-    doc["volume"]["gather_depth"] = 0;  // no attempts rule: the scene's budgets and render.spp
+    doc["volume"]["gather_depth"] = 1;  // no attempts rule: the scene's budgets and render.spp
+    doc["photons"]["volume"] = 100000;
     EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
+    doc["volume"]["gather_depth"] = 0;  // the photon gather: at least 16 spp, whole render.spp's
+    EXPECT_EQ(iteration_size(scene(doc)).spp, kGatherIterationSpp);
+    EXPECT_NE(iteration_size(scene(doc)).reason.find("render.spp 4 times 4"), std::string::npos);
+    doc["render"]["spp"] = 6;  // 18: 12 would be short of 16
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 18);
+    doc["render"]["spp"] = 24;
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 24);
+    doc["advanced"]["iteration_spp"] = 4;  // given: kept
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 4);
+    doc["advanced"].erase("iteration_spp");
+    doc["render"]["spp"] = 4;
+    doc["media"][0]["emission"] = json::parse(R"({"kind": "constant", "color": [1, 1, 1]})");
+    EXPECT_EQ(iteration_size(scene(doc)).spp, 4);  // a medium emits: its photons pay
 }
 
 // A plain render under the attempts rule with at least twice kIterationSamples camera samples
