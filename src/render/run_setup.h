@@ -135,10 +135,8 @@ inline constexpr uint64_t kIterationSamples = uint64_t(1) << 20;
 /// Samples a pixel a progressive photon gather's iteration takes at least where no medium emits:
 /// its photon pass and its map lookups (advanced.map_spp a pixel, however many samples) are the
 /// iteration's own and the rest of its samples cheap, and adaptive sampling allocates from here
-/// (four map steps). fog.json at 160x90 under a 5 or 10 s budget had 0.17 and 0.26 of the relMSE
-/// of iterations of its render.spp 4; where a medium emits, the maps' photons carry the light and
-/// more of them a sample pay (fire.json, heat.json: 1.28 and 1.15 times the relMSE at 16 spp).
-/// docs/measurements.md, An iteration's size.
+/// (four map steps). Where a medium emits, the maps' photons carry the light and more of them a
+/// sample pay instead (docs/measurements.md, An iteration's size).
 inline constexpr int kGatherIterationSpp = 16;
 
 /// For the photon methods. A progressive run: iterations of advanced.iteration_spp when the scene
