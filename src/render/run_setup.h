@@ -143,10 +143,10 @@ inline constexpr int kGatherIterationSpp = 16;
 /// sets it; else, under the attempts rule with photons.volume not given, of the least multiple of
 /// render.spp that gives kIterationSamples camera samples; else, for the photon gather where no
 /// medium emits, of the least multiple of render.spp that gives kGatherIterationSpp; else of
-/// render.spp. A plain render of
-/// N = render.spp: advanced.iteration_spp given, ceil(N / advanced.iteration_spp) iterations of it;
-/// else, under the attempts rule with N x pixels >= 2 kIterationSamples, I = floor(N x pixels /
-/// kIterationSamples) iterations of ceil(N / I) spp; else one iteration of N.
+/// render.spp. A plain render of N = render.spp: advanced.iteration_spp given,
+/// ceil(N / advanced.iteration_spp) iterations of it; else, under the attempts rule with
+/// N x pixels >= 2 kIterationSamples, I = floor(N x pixels / kIterationSamples) iterations of
+/// ceil(N / I) spp; else one iteration of N.
 IterationSize iteration_size(const SceneDesc& desc);
 
 /// The volume map's k: with camera paths ending in it, volume.k not given and a medium whose |g|
