@@ -9,12 +9,14 @@
 
 namespace fogmap {
 
-/// Phase function value (1/sr) for the cosine between travel directions; g in (-1, 1).
+/// Phase function value (1/sr) for the cosine between travel directions; g in (-1, 1). In float,
+/// without cancellation: 1 + g² − 2g cos θ = (1 − |g|)² + 2|g| (1 − sign(g) cos θ), two
+/// non-negative terms (photon lookups evaluate it once per photon gathered).
 inline float hg_phase(float cos_theta, float g) {
-    const double gd = g;
-    const double denom = 1.0 + gd * gd - 2.0 * gd * static_cast<double>(cos_theta);
-    return static_cast<float>((1.0 - gd * gd) /
-                              (4.0 * kPiDouble * denom * std::sqrt(std::max(denom, 1e-300))));
+    const float a = std::fabs(g), one_minus_a = 1.0f - a;
+    const float side = g >= 0.0f ? 1.0f - cos_theta : 1.0f + cos_theta;
+    const float denom = std::max(one_minus_a * one_minus_a + 2.0f * a * side, 1e-30f);
+    return one_minus_a * (1.0f + a) / (4.0f * kPi * denom * std::sqrt(denom));
 }
 
 namespace detail {

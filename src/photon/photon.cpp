@@ -13,11 +13,8 @@ namespace fogmap {
 namespace {
 
 /// Largest exponent byte: values up to 255 * 2^(255 - 136) ≈ 1.7e38 are representable.
-constexpr int kExpBias = 128;
+constexpr int kExpBias = detail::kRgbeExpBias;
 constexpr int kMaxExpByte = 255;
-/// Snorm resolution of one octahedral coordinate: q in [-127, 127] stands for q / 127, so that 0
-/// and ±1 (the axes) are exact.
-constexpr float kOctScale = 127.0f;
 
 /// Non-negative finite part of a channel: NaN and negatives become 0, +Inf the largest float.
 float sanitize(float v) {
@@ -36,17 +33,6 @@ Vec2 oct_project(const Vec3& v) {
                  (1.0f - std::fabs(p.x)) * sign_not_zero(p.y));
     }
     return p;
-}
-
-Vec3 oct_unproject(int qx, int qy) {
-    const float px = static_cast<float>(qx) / kOctScale;
-    const float py = static_cast<float>(qy) / kOctScale;
-    Vec3 v(px, py, 1.0f - std::fabs(px) - std::fabs(py));
-    if (v.z < 0.0f) {
-        v.x = (1.0f - std::fabs(py)) * sign_not_zero(px);
-        v.y = (1.0f - std::fabs(px)) * sign_not_zero(py);
-    }
-    return glm::normalize(v);
 }
 
 uint16_t pack_oct(int qx, int qy) {
@@ -75,14 +61,6 @@ uint32_t encode_rgbe(const Color& c) {
     return mantissa(r) | (mantissa(g) << 8) | (mantissa(b) << 16) | (exp_byte << 24);
 }
 
-Color decode_rgbe(uint32_t rgbe) {
-    const int exp_byte = static_cast<int>(rgbe >> 24);
-    if (exp_byte == 0) return Color(0.0f);
-    const float f = std::ldexp(1.0f, exp_byte - kExpBias - 8);
-    return Color(static_cast<float>(rgbe & 0xFFu) * f, static_cast<float>((rgbe >> 8) & 0xFFu) * f,
-                 static_cast<float>((rgbe >> 16) & 0xFFu) * f);
-}
-
 uint16_t encode_oct16(const Vec3& dir) {
     const float l1 = std::fabs(dir.x) + std::fabs(dir.y) + std::fabs(dir.z);
     if (!(l1 > 0.0f) || !std::isfinite(l1)) return pack_oct(0, 0);  // degenerate input: +z
@@ -90,15 +68,15 @@ uint16_t encode_oct16(const Vec3& dir) {
     const Vec2 p = oct_project(v);
     // Precise encoding: of the 4 grid points around p, keep the one whose decoded direction is
     // closest to v (plain rounding is up to ~1.6x worse near the folds).
-    const int x0 = static_cast<int>(std::floor(p.x * kOctScale));
-    const int y0 = static_cast<int>(std::floor(p.y * kOctScale));
+    const int x0 = static_cast<int>(std::floor(p.x * detail::kOctScale));
+    const int y0 = static_cast<int>(std::floor(p.y * detail::kOctScale));
     const Vec3 v_unit = glm::normalize(v);
     int best_x = 0, best_y = 0;
     float best_cos = -2.0f;
     for (int dy = 0; dy <= 1; ++dy) {
         for (int dx = 0; dx <= 1; ++dx) {
             const int qx = std::min(x0 + dx, 127), qy = std::min(y0 + dy, 127);
-            const float cos_angle = glm::dot(oct_unproject(qx, qy), v_unit);
+            const float cos_angle = glm::dot(detail::oct_unproject(qx, qy), v_unit);
             if (cos_angle > best_cos) {
                 best_cos = cos_angle;
                 best_x = qx;
@@ -107,12 +85,6 @@ uint16_t encode_oct16(const Vec3& dir) {
         }
     }
     return pack_oct(best_x, best_y);
-}
-
-Vec3 decode_oct16(uint16_t code) {
-    const int qx = std::max(static_cast<int>(code & 0xFFu) - 128, -127);
-    const int qy = std::max(static_cast<int>(code >> 8) - 128, -127);
-    return oct_unproject(qx, qy);
 }
 
 }  // namespace fogmap

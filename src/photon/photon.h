@@ -6,17 +6,60 @@
 
 #include "core/math.h"
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
 
 namespace fogmap {
 
+namespace detail {
+/// RGBE's exponent bias: exponent byte e scales the 8-bit mantissas by 2^(e − kRgbeExpBias − 8).
+constexpr int kRgbeExpBias = 128;
+/// That scale for every exponent byte, 0 for e = 0 (black); exact (powers of two).
+inline constexpr std::array<float, 256> kRgbeScale = [] {
+    std::array<float, 256> scale{};
+    for (int e = 1; e < 256; ++e) {
+        float f = 1.0f;
+        for (int p = e - kRgbeExpBias - 8; p > 0; --p) f *= 2.0f;
+        for (int p = e - kRgbeExpBias - 8; p < 0; ++p) f *= 0.5f;
+        scale[e] = f;
+    }
+    return scale;
+}();
+/// Snorm resolution of one octahedral coordinate: q in [-127, 127] stands for q / 127, so that 0
+/// and ±1 (the axes) are exact.
+constexpr float kOctScale = 127.0f;
+
+/// The unit vector of octahedral grid point (qx, qy), q in [-127, 127].
+inline Vec3 oct_unproject(int qx, int qy) {
+    const float px = static_cast<float>(qx) / kOctScale;
+    const float py = static_cast<float>(qy) / kOctScale;
+    Vec3 v(px, py, 1.0f - std::fabs(px) - std::fabs(py));
+    if (v.z < 0.0f) {
+        v.x = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
+        v.y = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
+    }
+    return glm::normalize(v);
+}
+}  // namespace detail
+
 /// Shared-exponent RGB (Ward): 8-bit mantissas, common 8-bit exponent. Non-negative finite input.
+/// Decoding is inline: lookups decode every photon they gather.
 uint32_t encode_rgbe(const Color& c);
-Color decode_rgbe(uint32_t rgbe);
+inline Color decode_rgbe(uint32_t rgbe) {
+    const float f = detail::kRgbeScale[rgbe >> 24];
+    return Color(static_cast<float>(rgbe & 0xFFu) * f, static_cast<float>((rgbe >> 8) & 0xFFu) * f,
+                 static_cast<float>((rgbe >> 16) & 0xFFu) * f);
+}
 
 /// Octahedral map of a unit vector to 8+8 bits (max angular error 0.65 degrees, axes exact).
 uint16_t encode_oct16(const Vec3& dir);
-Vec3 decode_oct16(uint16_t code);
+inline Vec3 decode_oct16(uint16_t code) {
+    const int qx = std::max(static_cast<int>(code & 0xFFu) - 128, -127);
+    const int qy = std::max(static_cast<int>(code >> 8) - 128, -127);
+    return detail::oct_unproject(qx, qy);
+}
 
 struct Photon {
     enum Flags : uint8_t {

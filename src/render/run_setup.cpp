@@ -374,7 +374,9 @@ IterationSize iteration_size(const SceneDesc& desc) {
 
 int volume_k(const SceneDesc& desc) {
     if (method_of(desc) != Method::MapEnd || desc.volume.k) return desc.volume.k_or_default();
-    return moments_fit(desc) ? kDefaultVolumeK : 2 * kDefaultVolumeK;
+    const bool peaked = std::any_of(desc.media.begin(), desc.media.end(),
+                                    [](const MediumDesc& m) { return peaked_phase(m.g); });
+    return peaked ? 2 * kDefaultVolumeK : kDefaultVolumeK;
 }
 
 Method method_of(const SceneDesc& desc) {

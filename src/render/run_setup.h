@@ -149,9 +149,9 @@ inline constexpr int kGatherIterationSpp = 16;
 /// ceil(N / I) spp; else one iteration of N.
 IterationSize iteration_size(const SceneDesc& desc);
 
-/// The volume map's k: with camera paths ending in it, volume.k not given and a medium whose |g|
-/// is above kMomentGridMaxG (its lookups search the kd-tree), twice the default — a peaked phase
-/// function weighs few of the gathered photons; otherwise volume.k (its default when not given).
+/// The volume map's k: with camera paths ending in it, volume.k not given and a medium whose phase
+/// function is peaked (media/phase.h, peaked_phase: it weighs few of the photons gathered), twice
+/// the default; otherwise volume.k (its default when not given).
 int volume_k(const SceneDesc& desc);
 
 /// The consecutive samples of a pixel that make one unit of its estimate when `method` renders

@@ -90,6 +90,21 @@ TEST(HenyeyGreenstein, PhaseMatchesClosedFormAtPoles) {
     }
 }
 
+TEST(HenyeyGreenstein, PhaseMatchesTheTextbookFormulaInLongDouble) {
+    // hg_phase runs in float; (1−g²)/(4π(1+g²−2gμ)^{3/2}) in long double at the same float μ. Its
+    // few roundings (each ≤ 2^-24 relative; the sum's terms are both non-negative) stay within
+    // 2e-6, also where 1+g²−2gμ cancels (|g| near 1, μ near sign(g)).
+    for (float g : {-0.999f, -0.9f, -0.5f, 0.0f, 0.3f, 0.5f, 0.85f, 0.999f}) {
+        for (int i = 0; i <= 4000; ++i) {
+            const float mu = i == 4000 ? 1.0f : -1.0f + static_cast<float>(i) / 2000.0f;
+            const long double gl = g, d = 1.0L + gl * gl - 2.0L * gl * mu;
+            const long double exact = (1.0L - gl * gl) / (4.0L * kPiD * d * std::sqrt(d));
+            const double rel = static_cast<double>(std::abs(hg_phase(mu, g) - exact) / exact);
+            EXPECT_LT(rel, 2e-6) << "g = " << g << ", mu = " << mu;
+        }
+    }
+}
+
 TEST(HenyeyGreenstein, SampledCosinesFollowAnalyticCdf) {
     constexpr int kBins = 100;
     constexpr int kSamples = 1000000;

@@ -467,15 +467,18 @@ TEST(Plan, PlainRendersOfManySamplesSplitIntoIterationsOfAMillion) {
     EXPECT_EQ(iteration_size(scene(doc)).iterations, 1);
 }
 
-// The volume map's k with paths ending in it: twice volume.k where a medium's phase function is
-// too peaked for the moment grid, unless the scene gives k; volume.k otherwise.
+// The volume map's k with paths ending in it: twice volume.k where a medium's phase function
+// weighs fewer than a fifth of the photons gathered ((1 - g²)² / (1 + g²) < 0.2: |g| above
+// 0.678), unless the scene gives k; volume.k otherwise.
 TEST(Plan, VolumeKDoublesForAPeakedPhaseFunctionUnlessTheSceneGivesOne) {
     json doc = glass_floor_fog();
     doc["volume"] = json{{"gather_depth", 3}};
     EXPECT_EQ(volume_k(scene(doc)), 50);  // the fog's g is 0
-    doc["media"][0]["g"] = 0.4;
+    doc["media"][0]["g"] = 0.5;           // beyond the moment grid, its share still 0.45
     EXPECT_EQ(volume_k(scene(doc)), 50);
-    doc["media"][0]["g"] = -0.41;
+    doc["media"][0]["g"] = 0.67;  // share 0.2096
+    EXPECT_EQ(volume_k(scene(doc)), 50);
+    doc["media"][0]["g"] = -0.69;  // share 0.1859
     EXPECT_EQ(volume_k(scene(doc)), 100);
     EXPECT_NE(line(make_plan(scene(doc)), kVolume)
                   .find("a smaller one holding about 100 (twice volume.k for a peaked phase "
