@@ -237,7 +237,7 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
                    RenderStats* stats, double* precompute_s, TileShare tiles, PhotonParts parts) {
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth,
-                                      parts != PhotonParts::None);
+                                      keeps_bias(parts));
     if (precompute_s) *precompute_s = integrator.precompute_s();
     const int step = map_step(settings.spp, settings.map_spp);
     return render_film(

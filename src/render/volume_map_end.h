@@ -144,7 +144,7 @@ public:
     /// `parts` (may be null): a batched map's parts (an unbatched map's: shares 1, bias 0).
     Color inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& phase, NeighborList& scratch,
                       Parts* parts = nullptr) const;
-    bool batched() const { return parts_ != PhotonParts::None; }
+    bool batched() const { return keeps_bias(parts_); }
     /// What a film of samples that end here keeps of the lookups' parts.
     PhotonParts parts() const { return parts_; }
 
