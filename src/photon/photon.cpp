@@ -22,15 +22,13 @@ float sanitize(float v) {
     return std::fmin(v, std::numeric_limits<float>::max());
 }
 
-float sign_not_zero(float v) { return v >= 0.0f ? 1.0f : -1.0f; }
-
 /// Octahedral projection of a unit vector onto [-1, 1]²: the lower hemisphere folds outwards.
 Vec2 oct_project(const Vec3& v) {
     const float l1 = std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z);
     Vec2 p(v.x / l1, v.y / l1);
     if (v.z < 0.0f) {
-        p = Vec2((1.0f - std::fabs(p.y)) * sign_not_zero(p.x),
-                 (1.0f - std::fabs(p.x)) * sign_not_zero(p.y));
+        p = Vec2((1.0f - std::fabs(p.y)) * detail::sign_not_zero(p.x),
+                 (1.0f - std::fabs(p.x)) * detail::sign_not_zero(p.y));
     }
     return p;
 }

@@ -31,14 +31,17 @@ inline constexpr std::array<float, 256> kRgbeScale = [] {
 /// and ±1 (the axes) are exact.
 constexpr float kOctScale = 127.0f;
 
+/// 1 for v >= 0 (0 included), else -1: the octahedral folds' sign.
+inline float sign_not_zero(float v) { return v >= 0.0f ? 1.0f : -1.0f; }
+
 /// The unit vector of octahedral grid point (qx, qy), q in [-127, 127].
 inline Vec3 oct_unproject(int qx, int qy) {
     const float px = static_cast<float>(qx) / kOctScale;
     const float py = static_cast<float>(qy) / kOctScale;
     Vec3 v(px, py, 1.0f - std::fabs(px) - std::fabs(py));
     if (v.z < 0.0f) {
-        v.x = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
-        v.y = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
+        v.x = (1.0f - std::fabs(py)) * sign_not_zero(px);
+        v.y = (1.0f - std::fabs(px)) * sign_not_zero(py);
     }
     return glm::normalize(v);
 }
