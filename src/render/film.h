@@ -48,6 +48,7 @@ struct FilmSample {
     /// half's estimate of the map's bias in it (RadiusBias).
     std::array<Color, kBatches> photon_delta{};
     std::array<Color, 2> bias_half{};
+    bool batched = false;  ///< whether it read one (else the two above are 0 and unread)
     Color& operator[](Layer l) { return layers[static_cast<int>(l)]; }
     Color layer_sum() const {
         Color sum(0.0f);
@@ -319,8 +320,10 @@ struct BiasHalves {
     std::array<int, 2> n{};                     ///< samples per sample half
     void add(const std::array<Color, 2>& bias, size_t batch) {
         for (size_t h = 0; h < 2; ++h) sum[batch % 2][h] += bias[h];
-        ++n[batch % 2];
+        count(batch);
     }
+    /// A sample of `batch` whose bias is 0 (it read no map).
+    void count(size_t batch) { ++n[batch % 2]; }
     Color mean(size_t s, size_t h) const {
         return n[s] > 0 ? sum[s][h] / float(n[s]) : Color(0.0f);
     }
@@ -465,8 +468,12 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
                 return std::all_of(colors.begin(), colors.end(),
                                    [](const Color& v) { return is_finite(v); });
             };
-            if (photon_batches && finite(c.photon_delta)) photons.add(c.photon_delta, b);
-            if (bias && finite(c.bias_half)) halves.add(c.bias_half, b);
+            if (!c.batched) {
+                if (bias) halves.count(b);
+            } else {
+                if (photon_batches && finite(c.photon_delta)) photons.add(c.photon_delta, b);
+                if (bias && finite(c.bias_half)) halves.add(c.bias_half, b);
+            }
         }
         const float inv = 1.0f / static_cast<float>(n);
         PixelMeans m;

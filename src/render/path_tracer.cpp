@@ -318,6 +318,7 @@ void PathTracer::end_path(const Path& p, const Vec3& x, const PhaseMix& phase, C
         add(p, Term::Scattered, map, L, ts);
         add_photon_delta(map, parts.shares, &ts.photon_delta);
         for (size_t h = 0; h < 2; ++h) ts.bias_half[h] += parts.bias[h] * map;
+        ts.batched = true;
         ts.gathered += ts.neighbors.size();
     } else {
         add(p, Term::Scattered, p.beta * policy_.split().grid->at(x, p.ray.d, phase), L, ts);
@@ -373,6 +374,7 @@ Color PathTracer::radiance(const Ray& camera_ray, Rng& rng, ThreadState& ts,
     p.prev_p = camera_ray.o;
     ts.photon_delta.fill(Color(0.0f));
     ts.bias_half.fill(Color(0.0f));
+    ts.batched = false;
     if (ts.layered) ts.layers.fill(Color(0.0f));
     if (ts.media.empty() || policy_.kind() != MediumVertex::EndInMap) return trace(p, rng, ts);
     return pick_segment(p, rng, ts);
@@ -526,8 +528,11 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
             FilmSample sample;
             sample.beauty = tracer.radiance(ray, rng, ts, &ps);
             sample.layers = ts.layers;
-            sample.photon_delta = ts.photon_delta;
-            sample.bias_half = ts.bias_half;
+            sample.batched = ts.batched;
+            if (ts.batched) {
+                sample.photon_delta = ts.photon_delta;
+                sample.bias_half = ts.bias_half;
+            }
             return sample;
         });
 }

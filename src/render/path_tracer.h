@@ -135,6 +135,7 @@ public:
         /// VolumeMapEnd's).
         std::array<Color, kBatches> photon_delta{};
         std::array<Color, 2> bias_half{};
+        bool batched = false;  ///< the camera sample ended in a batched map (FilmSample's)
         /// Set by the caller: the camera sample's radiance is also split into layers (by the
         /// path's vertices, layer_of) and summed here.
         bool layered = false;

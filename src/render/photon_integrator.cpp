@@ -151,6 +151,7 @@ FilmSample PhotonIntegrator::radiance(const Ray& camera_ray, Rng& rng, ThreadSta
         add_photon_delta(term, parts.shares(), &out.photon_delta);
         const std::array<float, 2> bias = parts.bias(kappa);
         for (size_t h = 0; h < 2; ++h) out.bias_half[h] += bias[h] * term;
+        out.batched = true;
         parts = BatchSums{};
     };
     Ray ray = camera_ray;

@@ -456,8 +456,13 @@ float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
 void VolumeMapEnd::set_table(const SigmaTable* table) {
     table_ = table;
     if (kappa_.empty()) return;
+    // κ weighs a point's inner power alone (grid_sums): where it holds none, κ is not needed.
     tbb::parallel_for(size_t(0), slot_.size(), [&](size_t n) {
-        if (slot_[n] >= 0) kappa_[size_t(slot_[n])] = kappa(density_.node_position(n), radius_);
+        const int32_t s = slot_[n];
+        if (s < 0) return;
+        const std::array<float, 2>& inner = batch_power_[size_t(s)].inner;
+        if (inner[0] != 0.0f || inner[1] != 0.0f)
+            kappa_[size_t(s)] = kappa(density_.node_position(n), radius_);
     });
 }
 

@@ -346,6 +346,7 @@ Film render_photon_parts(PhotonParts parts) {
         [&](const Ray&, Rng&, State&, const PixelSample& ps) {
             FilmSample f;
             f.beauty = Color(1.0f);
+            f.batched = true;
             const float a = float(ps.x + 1);
             for (int t = 0; t < kBatches; ++t) f.photon_delta[t] = Color((float(t) - 3.5f) * a);
             f.bias_half = {Color(float(ps.x)), Color(2.0f * float(ps.x))};
@@ -374,6 +375,38 @@ TEST(RenderFilm, PhotonPartsGiveTheSharedMapVarianceAndTheBiasHalves) {
             for (int i = 0; i < 4; ++i)
                 ASSERT_EQ(film.bias_halves[size_t(i)].at(x, y), Color(float(x) * float(1 + i % 2)));
         }
+}
+
+// Samples 2 and 3 of each pixel read no batched map, their parts either unread (garbage, batched
+// false) or zeros that are read: the same films.
+Film render_some_unbatched(bool garbage) {
+    return render_film(
+        Camera(camera_desc()), kSpp, 99, TileShare{}, false, PhotonParts::NoiseAndBias, 1, false,
+        true, nullptr, [] { return State{}; },
+        [&](const Ray&, Rng&, State&, const PixelSample& ps) {
+            FilmSample f;
+            f.beauty = Color(1.0f);
+            const bool reads = ps.s < 2;
+            f.batched = reads || !garbage;
+            const float a = float(ps.x + 1 + ps.s);
+            for (int t = 0; t < kBatches; ++t)
+                f.photon_delta[t] = Color(reads ? (float(t) - 3.5f) * a : garbage ? 1e6f : 0.0f);
+            const float b = reads ? float(ps.y) : garbage ? -1e6f : 0.0f;
+            f.bias_half = {Color(b), Color(2.0f * b)};
+            return f;
+        });
+}
+
+TEST(RenderFilm, ASampleThatReadNoBatchedMapCountsAsZeroParts) {
+    const Film skipped = render_some_unbatched(true), zeros = render_some_unbatched(false);
+    EXPECT_EQ(skipped.map_variance.pixels, zeros.map_variance.pixels);
+    ASSERT_EQ(skipped.bias_halves.size(), 4u);
+    for (int i = 0; i < 4; ++i)
+        EXPECT_EQ(skipped.bias_halves[size_t(i)].pixels, zeros.bias_halves[size_t(i)].pixels);
+    // One of each sample half's two samples (batches 0, 2 and 1, 3) carries y and 2y: the means
+    // y / 2 and y.
+    for (int i = 0; i < 4; ++i)
+        EXPECT_EQ(skipped.bias_halves[size_t(i)].at(3, 6), Color(i % 2 ? 6.0f : 3.0f));
 }
 
 TEST(RenderFilm, UnlayeredFilmHoldsTheBeautyMeanOverItsShareOfTiles) {
