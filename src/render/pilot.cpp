@@ -261,7 +261,9 @@ std::string no_pilot_reason(const SceneDesc& desc) {
     if (share.spp > kPilotMaxShare * desc.render.spp)
         return why + std::to_string(desc.render.spp) + " spp, where a pilot (" +
                std::to_string(share.spp) +
-               " spp) would cost more than the render: photon without one" + map_end_words(desc);
+               " spp, its photon runs tracing a quarter of the render's photons or more) would "
+               "cost more than it saves: photon without one" +
+               map_end_words(desc);
     if (const double f = pilot_samples_share(desc, share); f > kPilotMaxSamples) {
         char text[64];
         std::snprintf(text, sizeof text, "%.0f%%", 100.0 * f);

@@ -77,13 +77,15 @@ private:
 /// empty).
 Pilot pilot_share(const SceneDesc& desc);
 
-/// A pilot of more than this share of the render's samples per pixel (render.spp below 16 at
-/// the pilot's 4) traces, in its four photon runs, at least the render's photons and costs
-/// more than the render it decides: on smoke1 and the Disney cloud over the ground (160x120,
-/// auto against the photon integrator, two seeds) the pilot took 2.0 / 2.4x the photon
-/// render's time at 4 spp, 1.1 / 1.1x at 8, 0.63 / 0.66x at 16, 0.31 / 0.36x at 32. Below
-/// it, pilot_auto picks the photon integrator without a pilot.
-inline constexpr double kPilotMaxShare = 0.25;
+/// A pilot of more than this share of the render's samples per pixel (render.spp below 64 at
+/// the pilot's 4) traces, in its four photon runs, more than a quarter of the render's photons
+/// (all of them at 16 spp) and costs more than it saves: at 480x360 and 16-32 spp it took 4-25%
+/// of the render on smoke1 and the Disney cloud over the ground, where it picked the photon
+/// integrator (and once guided, at 1.69x the CPU), and where it picked the path tracer (a uniform
+/// slab at 16 spp, smoke1 at a tenth of its σ) the photon integrator without it had 0.71-0.92 of
+/// auto's relMSE x CPU (docs/measurements.md, Choosing an integrator). Below it, settle_pilot
+/// takes the photon integrator without a pilot.
+inline constexpr double kPilotMaxShare = 1.0 / 16.0;
 
 /// Nor does a pilot run whose six images take more than this share of the render's camera
 /// samples (small images, whose pilot is its 8 tiles at least): at 160x120 and 16-32 spp the

@@ -118,10 +118,11 @@ TEST(Pilot, ThickSmokeGoesToThePhotonMapsThinSmokeToThePathTracer) {
 }
 
 // kPilotMaxShare: at 8 spp the pilot's 4 would be half the render's samples per pixel (its
-// photon runs tracing twice the render's photons): photon without a pilot, saying why.
-// kPilotMaxSamples: at 16 spp on a 64 x 36 image (one pilot tile of its 12) the pilot's six
-// images would take 6 x 4 / 16 of the render's camera samples: photon without one, saying why; at
-// 512 spp, 6 x 4 / 512 (4.7%), the pilot runs.
+// photon runs tracing twice the render's photons), and at 32 an eighth (half of them): photon
+// without a pilot, saying why.
+// kPilotMaxSamples: at 64 spp on a 64 x 36 image (every one of its 12 tiles in the pilot: at
+// least 8) the pilot's six images would take 6 x 4 / 64 of the render's camera samples: photon
+// without one, saying why; at 512 spp, 6 x 4 / 512 (4.7%), the pilot runs.
 TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     const SceneDesc few = small_smoke(8, 0.03f);  // thin: the pilot would pick path at 64 spp
     EXPECT_GT(pilot_share(few).spp, kPilotMaxShare * few.render.spp);
@@ -129,16 +130,22 @@ TEST(Pilot, RendersOfFewSamplesTakeThePhotonMapsWithoutAPilot) {
     const RunSetup picked = pick(few, &piloted);
     EXPECT_FALSE(piloted);
     EXPECT_EQ(picked.run.render.integrator, Integrator::Photon);
-    EXPECT_NE(picked.reason.find("8 spp, where a pilot (4 spp) would cost more than "
-                                 "the render: photon without one"),
+    EXPECT_NE(picked.reason.find("8 spp, where a pilot (4 spp, its photon runs tracing a "
+                                 "quarter of the render's photons or more) would cost more "
+                                 "than it saves: photon without one"),
               std::string::npos)
         << picked.reason;
-    const SceneDesc small = small_smoke(16, 0.03f);
+    const SceneDesc eighth = small_smoke(32, 0.03f);
+    EXPECT_GT(pilot_share(eighth).spp, kPilotMaxShare * eighth.render.spp);
+    EXPECT_NE(
+        decline_pilot(eighth, resolve_run(eighth)).reason.find("32 spp, where a pilot (4 spp"),
+        std::string::npos);
+    const SceneDesc small = small_smoke(64, 0.03f);
     EXPECT_EQ(pilot_share(small).spp, 4);
-    EXPECT_DOUBLE_EQ(pilot_samples_share(small, pilot_share(small)), 1.5);
+    EXPECT_DOUBLE_EQ(pilot_samples_share(small, pilot_share(small)), 0.375);
     const RunSetup small_pick = pick(small, &piloted);
     EXPECT_FALSE(piloted);
-    EXPECT_NE(small_pick.reason.find("a render of 64 x 36 x 16 spp, whose pilot would take 150% of "
+    EXPECT_NE(small_pick.reason.find("a render of 64 x 36 x 64 spp, whose pilot would take 38% of "
                                      "its camera samples: photon without one"),
               std::string::npos)
         << small_pick.reason;
