@@ -79,12 +79,9 @@ Pilot pilot_share(const SceneDesc& desc);
 
 /// A pilot of more than this share of the render's samples per pixel (render.spp below 64 at
 /// the pilot's 4) traces, in its four photon runs, more than a quarter of the render's photons
-/// (all of them at 16 spp) and costs more than it saves: at 480x360 and 16-32 spp it took 4-25%
-/// of the render on smoke1 and the Disney cloud over the ground, where it picked the photon
-/// integrator (and once guided, at 1.69x the CPU), and where it picked the path tracer (a uniform
-/// slab at 16 spp, smoke1 at a tenth of its σ) the photon integrator without it had 0.71-0.92 of
-/// auto's relMSE x CPU (docs/measurements.md, Choosing an integrator). Below it, settle_pilot
-/// takes the photon integrator without a pilot.
+/// (all of them at 16 spp), and at 16-32 spp it cost more than it saved on every scene measured,
+/// whichever integrator it picked (docs/measurements.md, Choosing an integrator). Below it,
+/// settle_pilot takes the photon integrator without a pilot.
 inline constexpr double kPilotMaxShare = 1.0 / 16.0;
 
 /// Nor does a pilot run whose six images take more than this share of the render's camera
