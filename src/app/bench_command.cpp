@@ -38,7 +38,7 @@ namespace {
 namespace fs = std::filesystem;
 
 /// `d` running integrator `i` as if the scene named it, at the volume gather depth auto would
-/// take: no choice of auto left (its pilot would otherwise pick again).
+/// take.
 SceneDesc with_integrator(SceneDesc d, Integrator i) {
     d.volume.gather_depth = resolve_run(d).run.volume.gather_depth;
     d.render.integrator = i;
@@ -270,8 +270,7 @@ int run_bench(const BenchArgs& args, Ranks* world) {
             runs.push_back(load_scene_desc(args.scene, overrides));  // the normal checks
             // The sweep measures the photon maps, the path tracer runs beside it (--path-spp):
             // a run that leaves the integrator to auto uses the photon integrator, unless
-            // --set or --sweep names auto (then it runs as `fogmap render` does, its pilot
-            // timed with it: method "auto" where a pilot decides).
+            // --set or --sweep names auto (then it runs as `fogmap render` does).
             const bool named_auto = std::find(overrides.begin(), overrides.end(),
                                               "render.integrator=auto") != overrides.end();
             if (runs.back().render.integrator == Integrator::Auto && !named_auto)

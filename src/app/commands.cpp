@@ -17,7 +17,6 @@
 #include "render/film.h"
 #include "render/metrics.h"
 #include "render/part_file.h"
-#include "render/pilot.h"
 #include "render/pipeline.h"
 #include "render/report.h"
 #include "scene/scene.h"
@@ -256,11 +255,10 @@ void write_part(const std::string& path, const TileShare& share, PipelineResult 
 /// Renders `desc` and writes `exr` and `png` (both complete before either replaces an older one,
 /// core/output_files.h); returns the report. With --part, writes the part file `exr` alone.
 Report render_and_write(const RenderArgs& args, SceneDesc desc, const std::string& exr,
-                        const std::string& png, const Image* reference,
-                        const RunSetup* decided = nullptr) {
+                        const std::string& png, const Image* reference) {
     const bool root = !args.ranks || args.ranks->rank() == 0;
     const std::string threads_warning = root ? cap_threads(&desc) : "";
-    RunSetup setup = decided ? *decided : resolve_run(desc);
+    RunSetup setup = resolve_run(desc);
     setup.run.render.threads = desc.render.threads;
     check_run_memory(setup, reference != nullptr);
     // Checkpoints beside the EXR: written atomically by rank 0 (the last one at the end, so a
@@ -547,7 +545,7 @@ constexpr double kProgramBytes = 40.0 * (1 << 20);
 /// photon maps, each grid's tree and sampler from the file's metadata) and the program, and its
 /// samples and photons, without loading or tracing anything.
 int dry_run(const RenderArgs& args, const RenderJob& job) {
-    const RunSetup setup = decline_pilot(job.desc, resolve_run(job.desc));
+    const RunSetup setup = resolve_run(job.desc);
     const RunMemory m = run_memory(setup, !args.reference.empty());
     double grids = 0.0;
     bool unknown = false;
@@ -638,17 +636,6 @@ int run_render(const RenderArgs& args) {
                                          ": no such file");
             }
     });
-    // auto's pilot runs once, on the first frame, for the whole sequence (every rank alike: it is
-    // deterministic): one integrator for every frame, whose noise and blur do not change mid-shot.
-    RunSetup shot = resolve_run(desc);
-    if (shot.pilot && !desc.progressive.enabled()) {
-        std::unique_ptr<const Scene> scene;
-        agree_on_input(args.ranks,
-                       [&] { scene = load_scene(frame_desc(shot.run, frames.front())); });
-        shot = settle_pilot(desc, std::move(shot), *scene);
-        shot.set_reason(shot.reason + " (on frame " + std::to_string(frames.front()) +
-                        ", for every frame of --frames " + args.frames + ")");
-    }
     // Under mpirun the ranks form groups, dealt the frames round-robin; a group's ranks split
     // its frames' iterations, and its rank 0 writes them.
     const int world = args.ranks ? args.ranks->size() : 1;
@@ -672,10 +659,7 @@ int run_render(const RenderArgs& args) {
         if (!args.quiet && speaks) std::fprintf(stderr, "frame %d\n", f);
         Report report;
         try {
-            RunSetup frame = shot;
-            frame.run = frame_desc(shot.run, f);
-            report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr,
-                                      shot.pilot ? nullptr : &frame);
+            report = render_and_write(frame_args, frame_desc(desc, f), exr_f, png_f, nullptr);
         } catch (const InputError& e) {  // say which frame
             const InputError framed(e.file, e.field,
                                     e.reason + " (frame " + std::to_string(f) + ")");

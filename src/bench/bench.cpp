@@ -94,7 +94,7 @@ double median(std::vector<double> v) {
 BenchRow run_bench_case(const SceneDesc& desc, int repeats, const Image& reference, Ranks* ranks) {
     BenchRow row;
     const RunSetup setup = resolve_run(desc);
-    row.method = setup.pilot ? "auto" : integrator_name(setup.method);
+    row.method = integrator_name(setup.method);
     const bool progressive = setup.photon() && desc.progressive.enabled();
     row.spp = progressive ? setup.run.render.spp : desc.render.spp;  // as the run takes it
     row.repeats = std::max(repeats, 1);

@@ -28,15 +28,15 @@ std::vector<std::vector<std::string>> sweep_runs(const std::vector<SweepAxis>& a
 
 /// Phases reported by run_pipeline, in CSV order; a phase a run does not have is 0.
 /// "photon exchange" and "reduce" are the communication between MPI ranks (0 for one process).
-inline constexpr std::array<const char*, 10> kBenchPhases{
-    "load",         "pilot",      "photon pass", "build global",    "build caustic",
-    "build volume", "precompute", "render",      "photon exchange", "reduce"};
+inline constexpr std::array<const char*, 9> kBenchPhases{
+    "load",       "photon pass", "build global",    "build caustic", "build volume",
+    "precompute", "render",      "photon exchange", "reduce"};
 /// Photon maps, in CSV order.
 inline constexpr std::array<const char*, 3> kBenchMaps{"global", "caustic", "volume"};
 
 /// One run of the sweep: its settings, median times and error against the reference.
 struct BenchRow {
-    std::string method;  ///< render.integrator ("photon", "path", "guided"), or "auto" (piloted)
+    std::string method;              ///< render.integrator as it ran ("photon", "path", "guided")
     std::vector<std::string> swept;  ///< value of each swept key ("" = not swept here)
     int spp = 0;                     ///< render.spp of the run (an iteration's: iteration_size)
     int repeats = 0;                 ///< runs the medians are taken over

@@ -35,8 +35,6 @@ inline constexpr uint64_t kEmissionPower = 0x454d495353ull;
 inline constexpr uint64_t kNoise = 0x5EEDF06ull;
 /// "map_sp": which of a pixel's samples look up the photon maps (render/photon_integrator.h).
 inline constexpr uint64_t kMapSamples = 0x6d61705f73707000ull;
-/// "pilot": auto's pilot runs (render/pilot.h, pilot_seed).
-inline constexpr uint64_t kPilot = 0x70696c6f74000000ull;
 /// "adjoint": the path tracer's pixel estimate, apart from the render's samples.
 inline constexpr uint64_t kPixelEstimate = 0x61646a6f696e74ull;
 /// "SLAB": the slab validation's photons (photon/slab.h).
@@ -48,10 +46,9 @@ inline constexpr uint64_t kShutter = 0x53485554544552ull;
 /// "ADAPT": the dither that rounds adaptive sampling's per-pixel counts (render/adaptive.cpp).
 inline constexpr uint64_t kAdaptive = 0x4144415054ull;
 
-inline constexpr uint64_t kAll[] = {kPixelRows,     kPhotonBounce, kPhotonLight,    kPhotonEmission,
-                                    kEmissionPower, kNoise,        kMapSamples,     kPilot,
-                                    kPixelEstimate, kSlab,         kBenchReference, kShutter,
-                                    kAdaptive};
+inline constexpr uint64_t kAll[] = {kPixelRows,     kPhotonBounce,   kPhotonLight, kPhotonEmission,
+                                    kEmissionPower, kNoise,          kMapSamples,  kPixelEstimate,
+                                    kSlab,          kBenchReference, kShutter,     kAdaptive};
 
 /// Whether no two keys of kAll are equal.
 constexpr bool all_distinct() {

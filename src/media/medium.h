@@ -144,7 +144,7 @@ public:
         /// Walks cut at kMaxTentatives since this sampler was made (for reports).
         uint64_t exhausted_walks() const { return exhausted_walks_; }
         /// Density evaluations and tentative collisions since this sampler was made: the work
-        /// auto's pilot counts (render/pilot.h).
+        /// the report counts (Report::steps).
         uint64_t steps() const { return steps_; }
 
     private:

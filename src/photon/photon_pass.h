@@ -62,7 +62,7 @@ struct PhotonPassResult {
     std::optional<StoredPhotons> global, caustic, volume;  ///< absent when the Plan leaves it out
     std::vector<StreamReport> streams;
     uint64_t emitted = 0;  ///< attempts of all streams
-    /// Work traced (deterministic, auto's pilot counts it: render/pilot.h): medium density
+    /// Work traced (deterministic, for the report: Report::photon_steps): medium density
     /// evaluations and tentative collisions, and photon path interactions.
     uint64_t steps = 0, interactions = 0;
     /// Photon paths cut by photons.max_bounces while still carrying power, and that power as a

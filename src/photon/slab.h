@@ -44,7 +44,7 @@ struct SlabResult {
     double bounce_cap_power = 0.0;  ///< that lost power as a share of the power sent in
     uint64_t edge = 0;        ///< last interaction outside the slab's uniform part (expected 0)
     /// The work traced, deterministic: photon interactions (scatterings and absorptions), and
-    /// medium steps (density evaluations and tentative collisions, as auto's pilot counts them).
+    /// medium steps (density evaluations and tentative collisions, as the report counts them).
     /// Bounded by photons and albedo, not by tau (tau_model below).
     uint64_t interactions = 0, steps = 0;
     /// Optical thickness traced: tau, or the finite stand-in of a semi-infinite slab when tau is

@@ -12,7 +12,6 @@ namespace fogmap {
 inline constexpr double kRelMseFloor = 0.01;
 
 /// One value's relative squared error: squared_error / (y² + kRelMseFloor), y the reference.
-/// Also auto's pilot's (render/pilot.h), which estimates squared_error from a pair of images.
 inline double relative_squared_error(double squared_error, double y) {
     return squared_error / (y * y + kRelMseFloor);
 }

@@ -36,7 +36,8 @@ bool survive(int depth, Color* beta, Rng& rng) {
 // sample (the strata shuffled per pixel, group and dimension), jittered by j; each sample is
 // uniform over [0, 1)² as s is. Used for the first vertex's direction and sky sample, where it
 // lowers the error at the same time; groups of kStrataGroup, not of all of a pixel's samples,
-// so that a few-spp pilot sees the variance the render gets (docs/why.md).
+// so that the error estimate's batches, of whole groups (strata_unit), are independent and see
+// the variance per sample the render has (docs/why.md).
 Vec2 stratified(const PixelSample& ps, uint64_t dim, Vec2 j) {
     const int group = ps.s / kStrataGroup;
     const uint32_t n = static_cast<uint32_t>(std::min(kStrataGroup, ps.spp - group * kStrataGroup));

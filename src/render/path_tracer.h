@@ -39,8 +39,8 @@
 namespace fogmap {
 
 /// The first vertex's direction and sky sample are stratified within groups of this many
-/// consecutive samples of a pixel (path_tracer.cpp, stratified): auto's pilot (render/pilot.h),
-/// at as many samples a pixel, then sees the variance per sample the render has.
+/// consecutive samples of a pixel (path_tracer.cpp, stratified): the error estimate's batches
+/// take whole groups (strata_unit), and then see the variance per sample the render has.
 inline constexpr int kStrataGroup = 4;
 
 /// The unit of the film's batches (render_film) at `spp`: whole strata groups, so that batches

@@ -12,8 +12,8 @@
 #include "render/metrics.h"
 #include "render/path_tracer.h"
 #include "render/photon_integrator.h"
-#include "render/pilot.h"
 #include "render/run_setup.h"
+#include "render/sun_shadows.h"
 #include "scene/scene.h"
 
 #include <nlohmann/json.hpp>
@@ -83,17 +83,15 @@ void set_film_bits(const std::vector<int64_t>& bits, Film* film) {
     for (int& n : film->pixel_spp) n = int(bits[at++]);
 }
 
-/// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load and
-/// pilot times; `silent` prints nothing, not even warnings (auto's pilot runs).
+/// How run_loaded runs: run_pipeline's arguments, and its clock (null: its own) and load time.
 struct RunOptions {
-    bool quiet = false, silent = false;
+    bool quiet = false;
     const Image* reference = nullptr;
     Ranks* ranks = nullptr;
     std::optional<TileShare> part;  ///< this process's part of a run split by --part
     const Checkpoints* checkpoints = nullptr;
     const Timer* timer = nullptr;
-    double load_s = 0.0, pilot_s = 0.0;
-    SharedTables* shared = nullptr;
+    double load_s = 0.0;
 };
 
 /// The counts a run sums over iterations and ranks, in the order a checkpoint stores them.
@@ -192,7 +190,7 @@ struct RunEnd {
     const RunSetup& setup;
     const Counts& counts;
     int own = 1;  ///< iterations rank 0 (or part 1) ran itself
-    bool speak = false, silent = false;
+    bool speak = false;
 
     /// The mean of a progressive sum over the counted iterations, its clamps warned of.
     Film mean(const FixedFilm& sum, Report* report) const {
@@ -256,7 +254,6 @@ void RunEnd::finish(Film* film, Report* report) const {
 /// variance and samples layers, and what it cannot see: a photon method's bias beyond what the
 /// bias halves measure, and the photon gather's maps' noise when one set serves every sample.
 void RunEnd::estimate(Film* film, Report* report) const {
-    if (silent) return;  // auto's pilot runs
     const Timer timer;
     const bool progressive = setup.progressive;
     ErrorEstimate e = estimate_error(*film, report->spp);
@@ -382,8 +379,7 @@ private:
     std::optional<GatherParams> first_gather_;
     std::optional<SigmaTable> sigma_table_;  ///< MapEnd: σ_s over boxes, for every iteration
     VolumeMapEnd::Buffers end_buffers_;  ///< MapEnd: each iteration's grids in the last's memory
-    SharedTables own_tables_;
-    std::optional<SunShadows>& sun_shadows_;  ///< MapEnd: every iteration's, and shared runs'
+    std::optional<SunShadows> sun_shadows_;  ///< MapEnd: every iteration's
 };
 
 RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
@@ -399,14 +395,13 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
                : o.ranks ? o.ranks->rank()
                          : 0),
       root_(o.part || my_rank_ == 0),  // a part holds its own sums
-      speak_(root_ && !o.silent),
+      speak_(root_),
       quiet_(o.quiet || !speak_),
       progressive_(setup.progressive),
       quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
       photon_parts_(setup.photon_parts()),
       timer_(o.timer ? *o.timer : own_timer_),
-      base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
-      sun_shadows_((o.shared ? o.shared : &own_tables_)->sun) {}
+      base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0) {}
 
 void RunLoop::warn(const std::string& text) { warn_in(&report_, speak_, text); }
 
@@ -414,7 +409,6 @@ void RunLoop::warn(const std::string& text) { warn_in(&report_, speak_, text); }
 void RunLoop::begin() {
     report_.ranks = n_ranks_;
     add_phase(&report_, "load", o_.load_s);
-    if (o_.pilot_s > 0.0) add_phase(&report_, "pilot", o_.pilot_s);
     for (const std::string& w : scene_.warnings) warn(w);
     warn_many_lights();
     if (!setup_.ignored.empty()) {
@@ -749,7 +743,7 @@ bool RunLoop::reduce() {
         // continues from here.
         const Checkpoints* const c = o_.checkpoints;
         if (c && c->every_s > 0.0) c->write({0, int(counts_.iterations), counts_.pack(), sum_});
-        out_.film = RunEnd{setup_, counts_, own_, speak_, o_.silent}.mean(sum_, &report_);
+        out_.film = RunEnd{setup_, counts_, own_, speak_}.mean(sum_, &report_);
         return true;
     }
     if (n_ranks_ > 1) {
@@ -772,7 +766,7 @@ bool RunLoop::reduce() {
 
 /// Rank 0's report from its counts and film.
 void RunLoop::finish_report() {
-    RunEnd{setup_, counts_, own_, speak_, o_.silent}.finish(&out_.film, &report_);
+    RunEnd{setup_, counts_, own_, speak_}.finish(&out_.film, &report_);
 }
 
 PipelineResult RunLoop::run() {
@@ -820,13 +814,13 @@ PipelineResult unbiased_instead(const SceneDesc& file, const PipelineResult& pho
                   "auto: photon mapping's bias² alone (at least %.3g after %d iterations) is above "
                   "the target relMSE %.3g: the path tracer, unbiased, renders it instead",
                   e.bias_lo, e.iterations, e.target);
-    const bool speak = !o.silent && (!o.ranks || o.ranks->rank() == 0);
+    const bool speak = !o.ranks || o.ranks->rank() == 0;
     if (speak) say_warning(text);  // now, before the path run: the report takes it after
     const RunSetup path = resolve_picked(file, photon.setup, Integrator::Path, text);
     PipelineResult out = run_loaded(path, scene, o);
     double photon_s = 0.0;  // the photon run's phases but those the path run has again
     for (const auto& [name, s] : photon.report.phases_s)
-        if (name != "load" && name != "pilot") photon_s += s;
+        if (name != "load") photon_s += s;
     add_phase(&out.report, "photon run", photon_s);
     warn_in(&out.report, false, text);
     return out;
@@ -842,19 +836,12 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
                             const Checkpoints* checkpoints, const RunSetup* decided,
                             std::optional<TileShare> part) {
     RunSetup setup = decided ? *decided : resolve_run(desc);
-    const ThreadLimit threads(desc.render.threads);  // loading (bricks) and the pilot too
+    const ThreadLimit threads(desc.render.threads);  // loading (bricks) too
     const Timer timer;
     std::unique_ptr<const Scene> scene;
     agree_on_input(ranks, [&] { scene = load_scene(setup.run); });
     RunOptions o;
     o.load_s = timer.seconds();
-    SharedTables shared;  // the pilot's sun grids serve the render
-    if (setup.pilot) {    // the same choice on every rank: the pilot is deterministic
-        const Timer pilot;
-        bool piloted = false;  // a phase of its own only when it ran
-        setup = settle_pilot(desc, std::move(setup), *scene, &shared, &piloted);
-        if (piloted) o.pilot_s = pilot.seconds();
-    }
     if (ranks && !setup.progressive)
         setup.share_tiles(TileShare{ranks->rank(), ranks->size(), ranks});
     if (part && !setup.progressive) setup.share_tiles(*part);
@@ -864,7 +851,6 @@ PipelineResult run_pipeline(const SceneDesc& desc, bool quiet, const Image* refe
     o.part = part;
     o.checkpoints = checkpoints;
     o.timer = &timer;
-    o.shared = &shared;
     PipelineResult result = run_loaded(setup, *scene, o);
     // Checkpoints and parts fix the run's settings: there the bias stop ends the run.
     const bool fixed = part || (checkpoints && (checkpoints->resume || checkpoints->every_s > 0.0));
@@ -919,7 +905,7 @@ PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
         FixedFilm film = empty_sum(setup);
         film.values = std::move(sum_.values);
         film.clamped = uint64_t(sum.clamped);
-        const RunEnd end{setup, sum, int(own.iterations), speak, false};
+        const RunEnd end{setup, sum, int(own.iterations), speak};
         out.film = end.mean(film, &out.report);
         end.finish(&out.film, &out.report);
         return out;
@@ -931,15 +917,8 @@ PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
     out.film.bias_halves.assign(size_t(shape.bias_halves), Image(d.camera.width, d.camera.height));
     out.film.batch_share = shape.batch_share;
     set_film_bits(sum_.values, &out.film);
-    RunEnd{setup, sum, 1, speak, false}.finish(&out.film, &out.report);
+    RunEnd{setup, sum, 1, speak}.finish(&out.film, &out.report);
     return out;
-}
-
-PipelineResult run_on_scene(const RunSetup& setup, const Scene& scene, SharedTables* shared) {
-    RunOptions o;
-    o.quiet = o.silent = true;
-    o.shared = shared;
-    return run_loaded(setup, scene, o);
 }
 
 }  // namespace fogmap

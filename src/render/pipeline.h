@@ -1,18 +1,16 @@
 #pragma once
 // The whole run of one scene description (docs/design.md, Pipeline): resolve it once
-// (render/run_setup.h) and load it (where auto leaves it to a pilot, pick the method:
-// render/pilot.h), then one loop of iterations — photon pass with the iteration's seed, kd-trees,
-// the method's render with the iteration's gather — accumulated into one film, reduced over ranks;
-// timed by phase, with no files written. A plain render is one iteration; progressive photon
-// mapping runs until its count or time budget. `fogmap render` and `fogmap bench` both call it, so
-// every run is measured the same way.
+// (render/run_setup.h) and load it, then one loop of iterations — photon pass with the iteration's
+// seed, kd-trees, the method's render with the iteration's gather — accumulated into one film,
+// reduced over ranks; timed by phase, with no files written. A plain render is one iteration;
+// progressive photon mapping runs until its count or time budget. `fogmap render` and `fogmap
+// bench` both call it, so every run is measured the same way.
 
 #include "core/image.h"
 #include "render/checkpoint.h"
 #include "render/film.h"
 #include "render/report.h"
 #include "render/run_setup.h"
-#include "render/sun_shadows.h"
 #include "render/tiles.h"
 #include "scene/scene_desc.h"
 
@@ -68,7 +66,7 @@ struct PipelineResult {
     Report report;  ///< plan, settings, phases (summed over iterations), maps, iterations, mean
     /// With a part to run: its sums (film and report then unfinished: PartMerge finishes them).
     std::optional<PartSums> part;
-    RunSetup setup;  ///< the run as it ran (auto's pilot settled)
+    RunSetup setup;  ///< the run as it ran
     /// A target run stopped as its maps' bias² alone was above the target (on every rank).
     bool bias_stopped = false;
 };
@@ -90,8 +88,7 @@ uint64_t iteration_seed(uint64_t seed, int i, bool progressive);
 /// With `checkpoints` (progressive runs): starts after the iterations of checkpoints->resume (its
 /// sum and counts), and every checkpoints->every_s seconds, after a whole round, and at the end,
 /// passes rank 0's totals to checkpoints->write.
-/// `decided` (may be null): the run as already resolved and piloted (a sequence's frames take
-/// the first frame's pick); else resolve_run(desc).
+/// `decided` (may be null): the run as already resolved; else resolve_run(desc).
 /// With `part` (`fogmap render --part`, no ranks, no checkpoints, a progressive run by count
 /// alone): runs what rank part.index of part.count would, tracing every photon round itself,
 /// and returns its sums in PipelineResult::part for PartMerge.
@@ -115,18 +112,5 @@ private:
     std::vector<Report> reports_;        ///< each part's
     std::vector<int64_t> first_counts_;  ///< part 1's own
 };
-
-/// Tables that runs on one loaded scene share, each built by the first run that needs it (and
-/// counted in its report's work alone): the suns' shadow grids (their light, media and
-/// advanced.sun_grid must be the same for every run).
-struct SharedTables {
-    std::optional<SunShadows> sun;
-};
-
-/// The run of `setup` (no pilot pending) on `scene`, already loaded from it, on one process,
-/// printing nothing (warnings are in the report): auto's pilot runs (render/pilot.h). The
-/// report's load time is 0.
-PipelineResult run_on_scene(const RunSetup& setup, const Scene& scene,
-                            SharedTables* shared = nullptr);
 
 }  // namespace fogmap

@@ -69,7 +69,7 @@ struct Report {
     int ranks = 1;  ///< MPI ranks that ran (core/ranks.h); iterations lists rank 0's own
     int parts = 0;  ///< processes of `render --part` merged (0: none); iterations lists them all
     uint64_t samples = 0, rays = 0, nonfinite = 0;
-    /// The work done, counted (deterministic; auto's pilot weighs it: render/pilot.h): the
+    /// The work done, counted (deterministic, whatever the machine, threads or ranks): the
     /// render's medium density evaluations and tentative collisions, its photon-map and
     /// sun-grid lookups and the photons they gathered from kd-trees, the photon pass's medium steps
     /// and photon path interactions, the nodes of the tables built once per render (camera

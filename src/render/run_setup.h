@@ -3,7 +3,7 @@
 // nothing else) becomes the method that runs and why, its iteration schedule, the photon budgets,
 // the keys set by rule, and the share of tiles this process renders. Every stage takes its slice;
 // the Plan, the report's `settings` (what ran) and the checkpoint fingerprint print from it.
-// Pure functions of the description (and, for auto's pilot, of the loaded scene): deterministic.
+// Pure functions of the description: deterministic.
 
 #include "photon/photon_settings.h"
 #include "render/batches.h"
@@ -40,10 +40,7 @@ struct RunSetup {
     /// render.adaptive (adaptive_sampling's).
     SceneDesc run;
     Method method = Method::Path;
-    std::string reason = "scene";  ///< why this method: "scene", or auto's rule and pilot
-    /// auto left the pick between the photon methods, path and guided to a pilot once the media
-    /// are loaded (render/pilot.h, settle_pilot).
-    bool pilot = false;
+    std::string reason = "scene";  ///< why this method: "scene", or auto's rule
     /// Iterations summed into one film: of shrinking radii (photon methods), of fresh samples
     /// (path, guided).
     bool progressive = false;
@@ -51,7 +48,7 @@ struct RunSetup {
     /// Settings keys the scene sets (away from their defaults) that this method does not read.
     std::vector<std::string> ignored;
     PhotonSettings photons;  ///< the photon pass's budgets and closing rules
-    TileShare tiles;         ///< the tiles this process renders (MPI ranks, auto's pilot)
+    TileShare tiles;         ///< the tiles this process renders (MPI ranks, --part)
     Plan plan;               ///< the maps and passes this run needs, and why
 
     /// The photon integrator's methods (the others trace no photon maps).
@@ -69,7 +66,7 @@ struct RunSetup {
     /// adaptive sampling runs).
     void set_reason(std::string why);
     /// This process renders `share` of the tiles: without ranks to share adaptive sampling's
-    /// image-wide sums with (auto's pilot, --part), every pixel takes render.spp.
+    /// image-wide sums with (--part), every pixel takes render.spp.
     void share_tiles(TileShare share);
 };
 
@@ -77,7 +74,8 @@ struct RunSetup {
 /// rule, in that order (the budgets follow an iteration's samples). Never throws.
 RunSetup resolve_run(const SceneDesc& desc);
 
-/// `file` resolved with `integrator` named (what auto's pilot picked) at the volume gather depth
+/// `file` resolved with `integrator` named (auto's path tracer for a target its photon run's bias
+/// put out of reach) at the volume gather depth
 /// `chosen` (auto's resolution of it) took, with `reason`.
 RunSetup resolve_picked(const SceneDesc& file, const RunSetup& chosen, Integrator integrator,
                         std::string reason);
@@ -89,9 +87,9 @@ RunSetup resolve_picked(const SceneDesc& file, const RunSetup& chosen, Integrato
 /// - photon when a medium emits;
 /// - for any other scene with media (smoke and clouds under sun, sky or area lights), photon with
 ///   camera paths ending in the volume map (volume.gather_depth kAutoGatherDepth, unless the
-///   scene sets a depth or asks for photon beams), and a pilot once the media are loaded;
+///   scene sets a depth or asks for photon beams);
 /// - path when there is no medium.
-/// Sets setup->run.render.integrator (and gather_depth), reason and pilot. A named integrator is
+/// Sets setup->run.render.integrator (and gather_depth) and reason. A named integrator is
 /// kept with the reason "scene".
 void choose_integrator(RunSetup* setup);
 

@@ -70,7 +70,7 @@ inline uint64_t pixel_key(uint64_t seed, uint64_t pixel) {
 struct TileShare {
     int index = 0, count = 1;
     /// The processes rendering the other shares, where they exchange sums (MPI ranks: adaptive
-    /// sampling's image-wide sums); null alone, or where they cannot (auto's pilot, --part).
+    /// sampling's image-wide sums); null alone, or where they cannot (--part).
     Ranks* ranks = nullptr;
 };
 

@@ -77,7 +77,7 @@ public:
     /// Cells of edge `cell` (world units, > 0; larger where the grid would exceed kMaxCells)
     /// over the media's bounds.
     AdjointGrid(const PhotonMap& map, const std::vector<Medium>& media, float cell);
-    /// Density evaluations the build made (auto's pilot counts them).
+    /// Density evaluations the build made (the report counts them).
     size_t evaluations() const { return evaluations_; }
     /// L̃ at world point x towards −dir (dir: the path's travel direction into x) through
     /// `phase`, per channel; 0 beyond the grid.

@@ -1,7 +1,7 @@
 // A run split by `fogmap render --part I/N` over processes that never talk, put together by
 // `fogmap merge`: the EXR is the bytes one process writes, and those of `mpirun -np N` — for the
 // photon gather, camera paths ending in the volume map (with the map's noise and bias in the
-// estimate), the path tracer, auto with its pilot, progressive iterations and a sequence's frames
+// estimate), the path tracer, progressive iterations and a sequence's frames
 // — whatever order the parts are given in, and the report counts every part's samples. Parts of
 // another run (seed, settings, N), a missing, repeated, corrupt or cut part, and options a part
 // cannot take are refused with one line naming the file and field, exit 2, nothing written.
@@ -47,8 +47,7 @@ protected:
 
 TEST_F(Parts, MergedPartsAreTheImageOfOneProcess) {
     const std::string fog = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json",
-                      smoke = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json",
-                      slab = std::string(FOGMAP_SOURCE_DIR) + "/bench/scenes/slab_ground.json";
+                      smoke = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
     const std::string small = " --set camera.width=40 --set camera.height=24 ";
     const std::string cases[] = {
         fog + small + "--spp 2 --set photons.volume=8000 --set photons.global=3000",
@@ -59,7 +58,6 @@ TEST_F(Parts, MergedPartsAreTheImageOfOneProcess) {
             "--set advanced.iteration_spp=2",
         smoke + small + "--spp 4",  // the map's noise and bias halves in the film
         smoke + small + "--spp 4 --set render.integrator=path",
-        slab + small + "--spp 8",  // auto's pilot, run by every part
     };
     int n = 2;
     for (const std::string& c : cases) {

@@ -61,27 +61,6 @@ TEST_F(Sequence, EveryFrameRendersFromItsOwnFileAndResumeSkipsFinishedOnes) {
     EXPECT_NE(r.out.find("frame 2\n"), std::string::npos) << r.out;
 }
 
-TEST_F(Sequence, AutoPicksOnceForTheWholeSequence) {
-    make_sequence(3);
-    const test::RunResult r =
-        run("render -q --json " + at("s.json") +
-            " --set render.integrator=auto --spp 512 --frames 1-3 -o " + at("out/a.####.exr"));
-    ASSERT_EQ(r.code, 0) << r.err;
-    const nlohmann::json reports = nlohmann::json::parse(r.out);
-    ASSERT_EQ(reports.size(), 3u);
-    const std::string first = reports[0]["plan"]["integrator"]["reason"];
-    // One ran: at 512 spp its 4 spp in the image's one tile are under 5% of the samples.
-    EXPECT_NE(first.find("a pilot (1 in"), std::string::npos) << first;
-    EXPECT_NE(first.find("(on frame 1, for every frame of --frames 1-3)"), std::string::npos)
-        << first;
-    for (const nlohmann::json& report : reports) {
-        EXPECT_EQ(report["plan"]["integrator"]["reason"], first);
-        EXPECT_EQ(report["settings"]["render"]["integrator"],
-                  reports[0]["settings"]["render"]["integrator"]);
-        EXPECT_EQ(report["time_s"].count("pilot"), 0u);  // no pilot of its own
-    }
-}
-
 TEST_F(Sequence, AMissingFrameFileNamesTheFrameBeforeAnyWork) {
     make_sequence(3);
     const test::RunResult r =

@@ -121,13 +121,13 @@ TEST(Rng, SameSeedAndIndicesGiveSameSequence) {
 // probability ~1e-13). The xor form it replaced gave seeds 2j and 2j + 1 the same pair, swapped.
 TEST(StreamKeys, DerivedSeedsOfDifferentSeedsNeverCoincide) {
     const auto xor_form = [](uint64_t seed, uint64_t k) {
-        return mix64(seed ^ (stream::kPilot + k));
+        return mix64(seed ^ (stream::kAdaptive + k));
     };
     EXPECT_EQ(xor_form(6, 0), xor_form(7, 1));
     std::set<uint64_t> seen;
     for (uint64_t seed = 0; seed < 1000; ++seed)
         for (uint64_t k = 0; k < 2; ++k)
-            EXPECT_TRUE(seen.insert(derive_seed(seed, stream::kPilot, k)).second)
+            EXPECT_TRUE(seen.insert(derive_seed(seed, stream::kAdaptive, k)).second)
                 << "seed " << seed << ", index " << k;
     // Another key gives other seeds.
     for (uint64_t seed = 0; seed < 1000; ++seed)

@@ -55,21 +55,35 @@ TEST(RunSetup, NamedIntegratorsAreOneMethodEach) {
     EXPECT_EQ(method("photon", 0), Method::Gather);
     EXPECT_EQ(method("photon", 2), Method::MapEnd);
     EXPECT_EQ(resolve_run(scene(doc)).reason, "scene");
-    EXPECT_FALSE(resolve_run(scene(doc)).pilot);
 }
 
 // auto under sun and sky: photon with camera paths ending in the volume map at
-// kAutoGatherDepth, a pilot pending; the scene's file keeps its keys (gather_depth absent).
-TEST(RunSetup, AutoUnderSunAndSkyEndsPathsInTheMapAndLeavesThePickToAPilot) {
-    const SceneDesc file = scene(sunlit_cloud());
-    const RunSetup s = resolve_run(file);
-    EXPECT_EQ(s.method, Method::MapEnd);
-    EXPECT_TRUE(s.pilot);
-    EXPECT_EQ(s.run.volume.gather_depth, kAutoGatherDepth);
-    EXPECT_EQ(file.volume.gather_depth, 0);
-    EXPECT_EQ(file.render.integrator, Integrator::Auto);
-    EXPECT_EQ(s.run.render.integrator, Integrator::Photon);
-    EXPECT_EQ(s.reason.rfind("auto: media under sun", 0), 0u) << s.reason;
+// kAutoGatherDepth, at any sample count (no pilot: docs/measurements.md); the scene's file keeps
+// its keys (gather_depth absent). Photon beams, which gather along marched camera rays, keep
+// depth 0.
+TEST(RunSetup, AutoUnderSunAndSkyEndsPathsInTheMapAtAnySampleCount) {
+    json doc = sunlit_cloud();
+    for (const int spp : {4, 64, 1024}) {
+        doc["render"]["spp"] = spp;
+        const SceneDesc file = scene(doc);
+        const RunSetup s = resolve_run(file);
+        EXPECT_EQ(s.method, Method::MapEnd) << spp;
+        EXPECT_EQ(s.run.volume.gather_depth, kAutoGatherDepth);
+        EXPECT_EQ(file.volume.gather_depth, 0);
+        EXPECT_EQ(file.render.integrator, Integrator::Auto);
+        EXPECT_EQ(s.run.render.integrator, Integrator::Photon);
+        EXPECT_EQ(s.reason.rfind("auto: media under sun, sky or area lights: photon, camera paths "
+                                 "ending in the volume map at vertex 3 (",
+                                 0),
+                  0u)
+            << s.reason;
+    }
+    doc["volume"]["estimator"] = "photon_beams";
+    const RunSetup beams = resolve_run(scene(doc));
+    EXPECT_EQ(beams.method, Method::Gather);
+    EXPECT_NE(beams.reason.find("photon, with the photon beams the scene asks for"),
+              std::string::npos)
+        << beams.reason;
 }
 
 // The report's settings are what ran: the cloud's g = 0.85 gathers twice the default k with
@@ -133,7 +147,8 @@ TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
     EXPECT_NE(s.plan.integrator.reason.find("render.spp 512 as 9 progressive iterations of 57"),
               std::string::npos)
         << s.plan.integrator.reason;
-    // The reason set later (auto's pilot, a sequence's first frame) keeps the schedule's.
+    // The reason set later (resolve_picked: auto's path tracer for a target out of a photon
+    // run's reach) keeps the schedule's.
     RunSetup t = s;
     t.set_reason("picked");
     EXPECT_EQ(t.plan.integrator.reason.rfind("picked; " + s.schedule, 0), 0u)
