@@ -119,8 +119,9 @@ public:
     VolumeMapEnd& operator=(const VolumeMapEnd&) = delete;
     /// Some grid point's ball holds more than 2k photons: lookups there want a SigmaTable.
     bool wants_table() const { return crowded_anywhere_; }
-    /// σ_s over boxes for AdaptiveRadius (may be null: one radius everywhere) and RadiusBias
-    /// (each grid point's κ, computed here); must outlive this.
+    /// σ_s over boxes for AdaptiveRadius and RadiusBias (each grid point's κ, computed here):
+    /// set once, before any lookup of a batched map (without it, one radius everywhere); must
+    /// outlive this.
     void set_table(const SigmaTable* table);
     int depth() const { return depth_; }  ///< the first vertex paths may end at
     /// A medium vertex at x, the path's `vertex`-th (1-based; diffuse surface vertices count),
@@ -260,9 +261,10 @@ private:
     /// Photon p's into those of layer k (z) of lattice g.
     void add_photon(const Photon& p, const Lattice& g, int k);
     /// σ̄_s at x and, where the grid holds moments, the interpolated moments (else m stays 0);
-    /// the corners used. False beyond the grid.
-    bool interpolate(const Vec3& x, Color* density, Moments* m,
-                     KernelDensity::Corners* c = nullptr) const;
+    /// the corners used. False beyond the grid. `batches`: the corners' batch sums will be read
+    /// (grid_sums), and are fetched from memory meanwhile.
+    bool interpolate(const Vec3& x, Color* density, Moments* m, KernelDensity::Corners* c = nullptr,
+                     bool batches = false) const;
     /// The photon count interpolated at x as interpolate does, from counts_ (0 beyond the grid
     /// or without counts_).
     float count_at(const Vec3& x) const;
@@ -282,9 +284,9 @@ private:
     std::vector<Moments> moments_;  ///< grid points with medium about them
     std::vector<float> counts_;     ///< their photon counts, packed for FineEnough's decision
     /// theirs: each photon batch's power, the channels' average (PhotonBatches), when batched_
-    /// and moments_ are built
+    /// and moments_ are built; the inner sums weighed by κ (RadiusBias: each point's own once
+    /// set_table has run)
     std::vector<BatchSums> batch_power_;
-    std::vector<float> kappa_;             ///< theirs (RadiusBias), with batch_power_
     const SigmaTable* table_ = nullptr;
     float k_;
     float max_tau_;
