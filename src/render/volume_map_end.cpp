@@ -446,7 +446,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
     } else {
         collisions =
             volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch, parts ? &sums : nullptr);
-        if (parts && sums.total() > 0.0f) parts_of(sums, searched_kappa(c, x), parts);
+        if (parts) parts_of(sums, kappa(x, radius_), parts);
     }
     return corrected(divide(collisions, density), radius_);
 }
@@ -462,17 +462,8 @@ float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
 void VolumeMapEnd::set_table(const SigmaTable* table) {
     FOGMAP_ASSERT(!table_ && table, "a map's table is set once");
     table_ = table;
-    // Lookups that search the kd-tree read κ at radius_ from the grid points with photons.
-    if (batched() && batch_power_.empty() && !moments_.empty())
-        kappa_.assign(moments_.size(), 0.0f);
     // κ weighs a point's inner power alone: where it holds none, κ is not needed.
     tbb::parallel_for(size_t(0), slot_.size(), [&](size_t n) {
-        if (!kappa_.empty()) {
-            const int32_t s = slot_[n];
-            if (s >= 0 && moments_[size_t(s)].count > 0.0f)
-                kappa_[size_t(s)] = kappa(density_.node_position(n), radius_);
-            return;
-        }
         const int32_t s = slot_[n];
         if (s < 0 || batch_power_.empty()) return;
         std::array<float, 2>& inner = batch_power_[size_t(s)].inner;
@@ -488,17 +479,6 @@ void VolumeMapEnd::parts_of(const BatchSums& sums, float kappa, Parts* parts) {
     if (!(sums.total() > 0.0f)) return;
     parts->shares = sums.shares();
     parts->bias = sums.bias(kappa);
-}
-
-float VolumeMapEnd::searched_kappa(const KernelDensity::Corners& c, const Vec3& x) const {
-    float sum = 0.0f, weight = 0.0f;
-    for (int n = 0; n < 8 && !kappa_.empty(); ++n) {
-        const int32_t s = slot_[c.node[n]];
-        if (s < 0 || !(kappa_[size_t(s)] > 0.0f)) continue;
-        sum += c.weight[n] * kappa_[size_t(s)];
-        weight += c.weight[n];
-    }
-    return weight > 0.0f ? sum / weight : kappa(x, radius_);
 }
 
 BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {

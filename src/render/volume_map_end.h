@@ -215,9 +215,6 @@ public:
 private:
     /// RadiusBias's κ at x for radius rho (kBallKappa without a table).
     float kappa(const Vec3& x, float rho) const;
-    /// κ at radius_ for a lookup at x that searches the kd-tree, with the grid's corners c: the
-    /// corners' κ (kappa_) averaged by their weights where they hold photons, else kappa(x).
-    float searched_kappa(const KernelDensity::Corners& c, const Vec3& x) const;
     /// PhotonBatches' and RadiusBias's parts of a lookup from its batches' sums, whose inner sums
     /// are weighed by `kappa`.
     static void parts_of(const BatchSums& sums, float kappa, Parts* parts);
@@ -290,9 +287,6 @@ private:
     /// and moments_ are built; the inner sums weighed by κ (RadiusBias: each point's own once
     /// set_table has run)
     std::vector<BatchSums> batch_power_;
-    /// Where lookups search the kd-tree (no batch_power_) and the map is batched: theirs, κ at
-    /// radius_ (RadiusBias), 0 where no photon is near; set by set_table
-    std::vector<float> kappa_;
     const SigmaTable* table_ = nullptr;
     float k_;
     float max_tau_;
