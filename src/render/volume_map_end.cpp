@@ -462,10 +462,11 @@ float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
 void VolumeMapEnd::set_table(const SigmaTable* table) {
     FOGMAP_ASSERT(!table_ && table, "a map's table is set once");
     table_ = table;
+    if (batch_power_.empty()) return;
     // κ weighs a point's inner power alone: where it holds none, κ is not needed.
     tbb::parallel_for(size_t(0), slot_.size(), [&](size_t n) {
         const int32_t s = slot_[n];
-        if (s < 0 || batch_power_.empty()) return;
+        if (s < 0) return;
         std::array<float, 2>& inner = batch_power_[size_t(s)].inner;
         if (inner[0] != 0.0f || inner[1] != 0.0f) {
             const float ratio = kappa(density_.node_position(n), radius_) / kBallKappa;
