@@ -45,10 +45,10 @@ struct Figures {
     }
 };
 
-Figures own_figures(const Film& first, const PassMeasure& m, int n, size_t p) {
+Figures own_figures(const Image& first, const PassMeasure& m, int n, size_t p) {
     Figures f;
     for (int c = 0; c < 3; ++c) {
-        const double mean = first.beauty.pixels[p][c];
+        const double mean = first.pixels[p][c];
         f.mean[c] = mean;
         f.variance[c] = std::max(0.0, (double(m.squares[p][c]) - n * mean * mean) / (n - 1));
     }
@@ -86,9 +86,9 @@ struct PixelAllocation {
 
 /// The tile's pixels' allocations (in `out`, by pixel index) and its two sums: Σ a sqrt(c) and
 /// Σ c over its pixels (each pixel's own work).
-std::array<double, 2> allocate_tile(const Film& first, const PassMeasure& m, int n1, int x0, int y0,
-                                    int x1, int y1, std::vector<PixelAllocation>* out) {
-    const int w = first.beauty.width, tw = x1 - x0, th = y1 - y0;
+std::array<double, 2> allocate_tile(const Image& first, const PassMeasure& m, int n1, int x0,
+                                    int y0, int x1, int y1, std::vector<PixelAllocation>* out) {
+    const int w = first.width, tw = x1 - x0, th = y1 - y0;
     std::vector<Figures> own(size_t(tw) * th), ring(size_t(tw) * th);
     const auto at = [&](int x, int y) { return size_t(y - y0) * tw + size_t(x - x0); };
     for (int y = y0; y < y1; ++y)
@@ -142,9 +142,15 @@ int first_pass_spp(int spp, int unit) {
     return std::min(spp, std::max(2 * unit, spp / 4 / unit * unit));
 }
 
-std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure, int spp, int n1,
-                                  int unit, uint64_t seed, TileShare share) {
-    const int w = first.beauty.width, h = first.beauty.height;
+namespace {
+
+/// Every pixel's count in `share`'s tiles: `base` plus the work of spp − base more samples of
+/// every pixel at its measured cost, spread as a / sqrt(c) from a measure of n1 samples a pixel
+/// (allocate_tile), in whole units by a dither of (seed, pixel), at least one unit, and at most
+/// kAdaptiveMax spp.
+std::vector<int> spread_work(const Image& first, const PassMeasure& measure, int n1, int spp,
+                             int base, int unit, uint64_t seed, TileShare share) {
+    const int w = first.width, h = first.height;
     const int tiles = tile_count(w, h);
     std::vector<PixelAllocation> pixels(size_t(w) * h);
     std::vector<double> sums(2 * size_t(tiles), 0.0);  // per tile: Σ a sqrt(c), Σ c
@@ -161,12 +167,12 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
         spread += sums[2 * size_t(t)];
         work += sums[2 * size_t(t) + 1];
     }
-    // The rest of a uniform render's work, (spp - n1) samples of every pixel at its first pass's
+    // The rest of a uniform render's work, (spp - base) samples of every pixel at its measured
     // cost, spread as a / sqrt(c); for each pixel, the sums without what its own samples added
     // (its own work replaced by its neighbours'), so that its count does not depend on them (up
     // to the sums' rounding).
     const double most =
-        std::min(double(kAdaptiveMax) * spp, double(std::numeric_limits<int>::max() - unit)) - n1;
+        std::min(double(kAdaptiveMax) * spp, double(std::numeric_limits<int>::max() - unit)) - base;
     std::vector<int> n(size_t(w) * h, 0);
     for (int tile = share.index; tile < tiles; tile += share.count) {
         const auto [x0, y0, x1, y1] = tile_rect(w, h, tile);
@@ -175,15 +181,71 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
                 const size_t p = size_t(y) * w + x;
                 const PixelAllocation& a = pixels[p];
                 const double others = spread - a.lift;
-                const double rest = double(spp - n1) * (work - a.own_work + a.ring_work);
+                const double rest = double(spp - base) * (work - a.own_work + a.ring_work);
                 double extra = std::min(rest * a.weight / others, most);
                 if (!(others > 0.0) || !std::isfinite(others) || !(extra >= 0.0))
-                    extra = double(spp - n1);  // nothing to go by (or overflowed): as uniform
+                    extra = double(spp - base);  // nothing to go by (or overflowed): as uniform
                 const double dither = Rng(derive_seed(seed, stream::kAdaptive, p), 0).uniform();
-                n[p] = n1 + unit * int(std::floor(extra / unit + dither));
+                n[p] = std::max(unit, base + unit * int(std::floor(extra / unit + dither)));
             }
     }
     return n;
+}
+
+}  // namespace
+
+std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure, int spp, int n1,
+                                  int unit, uint64_t seed, TileShare share) {
+    return spread_work(first.beauty, measure, n1, spp, n1, unit, seed, share);
+}
+
+namespace {
+
+int64_t to_fixed(double x) {
+    constexpr double kMost = 576460752303423488.0;  // 2^59: eight such sums stay in range
+    const double v = x * IterationMeasure::kUnit;
+    return std::isfinite(v) ? std::llround(std::clamp(v, -kMost, kMost)) : 0;
+}
+
+int64_t add_saturated(int64_t a, int64_t b) {
+    int64_t r;
+    return __builtin_add_overflow(a, b, &r) ? (b > 0 ? INT64_MAX : INT64_MIN) : r;
+}
+
+}  // namespace
+
+void IterationMeasure::add(const Film& film, const PassMeasure& measure) {
+    const size_t pixels = film.beauty.pixels.size();
+    if (values.empty()) zero(film.beauty.width, film.beauty.height);
+    FOGMAP_ASSERT(values.size() == 7 * pixels && measure.squares.size() == pixels,
+                  "a measure adds films of its own shape");
+    for (size_t p = 0; p < pixels; ++p) {
+        int64_t* v = &values[7 * p];
+        for (int c = 0; c < 3; ++c) {
+            v[c] = add_saturated(v[c], to_fixed(film.beauty.pixels[p][c]));
+            v[3 + c] = add_saturated(v[3 + c], to_fixed(measure.squares[p][c]));
+        }
+        v[6] = add_saturated(v[6], to_fixed(measure.work[p]));
+    }
+}
+
+std::vector<int> IterationMeasure::allocate(int iterations, int spp, int unit,
+                                            uint64_t seed) const {
+    Image mean(width, height);
+    PassMeasure m;
+    const size_t pixels = size_t(width) * height;
+    m.squares.resize(pixels);
+    m.work.resize(pixels);
+    const double inv = 1.0 / (kUnit * iterations);
+    for (size_t p = 0; p < pixels; ++p) {
+        const int64_t* v = &values[7 * p];
+        for (int c = 0; c < 3; ++c) {
+            mean.pixels[p][c] = float(double(v[c]) * inv);
+            m.squares[p][c] = float(double(v[3 + c]) / kUnit);
+        }
+        m.work[p] = float(double(v[6]) * inv);
+    }
+    return spread_work(mean, m, iterations * spp, spp, 0, unit, seed, TileShare{});
 }
 
 void merge_pixel(Film* film, size_t p, const PixelMeans& later, int n1, int n, int unit) {

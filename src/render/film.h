@@ -116,8 +116,9 @@ struct Film {
     Image variance, samples;  ///< written as EXR layers when set
     /// Adaptive sampling (render/adaptive.cpp): each pixel's samples, batched by whole `unit`s as
     /// render_film batches them, so that its batches' shares differ from pixel to pixel
-    /// (Film::shares; batch_share then holds the first pass's, which every pixel took); empty
-    /// when every pixel has the same.
+    /// (Film::shares; batch_share then holds the first pass's, which every pixel took, or with
+    /// counts given in advance (GivenSamples) a uniform render's, unread); empty when every pixel
+    /// has the same.
     std::vector<int> pixel_spp;
     int unit = 1;
 
@@ -362,6 +363,37 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
                                   int unit, uint64_t seed, TileShare share);
 /// The most samples adaptive sampling gives a pixel, in multiples of render.spp.
 inline constexpr int kAdaptiveMax = 16;
+
+/// Adaptive sampling across a progressive run's iterations (RunSetup::measured, docs/design.md):
+/// what its measured iterations, each of the same samples in every pixel, add up to per pixel —
+/// the beauty's means, the squares of its samples, its work per sample — in 64-bit fixed point,
+/// so that the sums are exact and the same whatever order, thread or rank added them.
+struct IterationMeasure {
+    static constexpr double kUnit = 16777216.0;  // 2^24
+    int width = 0, height = 0;
+    std::vector<int64_t> values;  ///< per pixel: beauty (3), squares (3), work (1)
+
+    /// All zero, of a width x height image (a process that measured none of them).
+    void zero(int w, int h) {
+        width = w;
+        height = h;
+        values.assign(7 * size_t(w) * h, 0);
+    }
+    /// Adds a measured iteration's film and its PassMeasure.
+    void add(const Film& film, const PassMeasure& measure);
+    /// Every pixel's samples in each later iteration of `spp` samples a pixel (in whole `unit`s, at
+    /// least one): the work of a uniform iteration spread as allocate_samples spreads its rest,
+    /// from `iterations` measured iterations of `spp`; rounded by a dither of (seed, pixel).
+    std::vector<int> allocate(int iterations, int spp, int unit, uint64_t seed) const;
+};
+
+/// What adaptive sampling across iterations asks of one iteration's render_film, in place of its
+/// own `adaptive`: every pixel's samples given (the iterations after the measured ones), or, with
+/// `measure`, spp samples in every pixel and their PassMeasure (the measured ones).
+struct GivenSamples {
+    const std::vector<int>* counts = nullptr;
+    PassMeasure* measure = nullptr;
+};
 /// One pixel's means over one pass's samples (render_pass), and what its photon batches give.
 struct PixelMeans {
     Color beauty{0.0f};
@@ -522,17 +554,19 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
 /// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
 /// `adaptive`: spp sets the work (of spp samples in every pixel): a first pass of first_pass_spp
 /// samples in every pixel, then a second of allocate_samples' counts (film.pixel_spp).
+/// `given` (adaptive sampling across iterations) replaces `adaptive` when it holds either.
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
                  PhotonParts photon_parts, int unit, bool adaptive, bool quiet, RenderStats* stats,
-                 MakeState&& make_state, Trace&& trace) {
+                 MakeState&& make_state, Trace&& trace, GivenSamples given = {}) {
     const Timer timer;
     PassCounters counters;
     Film film(camera.width(), camera.height(), layered);
     if (keeps_noise(photon_parts)) film.map_variance = Image(film.beauty.width, film.beauty.height);
     if (keeps_bias(photon_parts))
         film.bias_halves.assign(4, Image(film.beauty.width, film.beauty.height));
-    const int n1 = adaptive ? first_pass_spp(spp, unit) : spp;
+    const bool own_passes = adaptive && !given.counts && !given.measure;
+    const int n1 = own_passes ? first_pass_spp(spp, unit) : spp;
     const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {
         const char* what = n1 >= spp ? "render"
                            : merge   ? "render, more where the error is"
@@ -543,8 +577,18 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     const std::array<int, kBatches> counts = batch_counts(0, n1, unit);
     for (size_t b = 0; b < size_t(kBatches); ++b) film.batch_share[b] = double(counts[b]) / n1;
     const auto first = [&](size_t) { return PixelRange{0, n1, n1}; };
-    if (n1 >= spp) {
-        pass(false, first, nullptr);
+    if (given.counts) {
+        film.pixel_spp = *given.counts;
+        film.unit = unit;
+        const std::vector<int>& n = film.pixel_spp;
+        pass(
+            false,
+            [&](size_t p) {
+                return PixelRange{0, n[p], n[p]};
+            },
+            nullptr);
+    } else if (n1 >= spp) {
+        pass(false, first, given.measure);
     } else {
         PassMeasure measure;
         pass(false, first, &measure);

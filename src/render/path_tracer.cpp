@@ -512,7 +512,7 @@ bool PathTracer::bounce(Path& p, const SurfaceHit& hit, Color* L, Rng& rng, Thre
 static_assert(Photon::kBatches == kBatches, "FilmSample::photon_delta: one per photon batch");
 
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
-                 const PathPolicy& policy, TileShare tiles, bool layered) {
+                 const PathPolicy& policy, TileShare tiles, bool layered, GivenSamples given) {
     const PathTracer tracer(scene, settings.max_depth, policy);
     const PhotonParts parts =
         policy.kind() == MediumVertex::EndInMap ? policy.end().parts() : PhotonParts::None;
@@ -535,7 +535,8 @@ Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet,
                 sample.bias_half = ts.bias_half;
             }
             return sample;
-        });
+        },
+        given);
 }
 
 Image render_pixel_estimate(const Scene& scene, const RenderSettings& settings,

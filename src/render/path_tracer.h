@@ -236,10 +236,10 @@ private:
 /// Renders scene.camera with the path tracer: settings.spp samples per pixel, settings.seed,
 /// settings.max_depth (the worker count is the caller's ThreadLimit), medium vertices as
 /// `policy` says. A layered film (PathTracer::layer_of) when `layered`. Progress on stderr
-/// unless quiet.
+/// unless quiet. `given`: adaptive sampling across iterations (render_film).
 Film render_path(const Scene& scene, const RenderSettings& settings, bool quiet, RenderStats* stats,
                  const PathPolicy& policy = PathPolicy::plain(), TileShare tiles = {},
-                 bool layered = false);
+                 bool layered = false, GivenSamples given = {});
 
 /// AdjointSplit's Ĩ: a render of kPixelEstimateSpp samples a pixel whose paths end at their first
 /// medium vertex with L̃ from `grid`, its average over each pixel's 3 × 3 neighbourhood within its

@@ -236,7 +236,8 @@ float map_weight(const PixelSample& ps, int step) {
 
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
-                   RenderStats* stats, double* precompute_s, TileShare tiles, PhotonParts parts) {
+                   RenderStats* stats, double* precompute_s, TileShare tiles, PhotonParts parts,
+                   GivenSamples given) {
     const PhotonIntegrator integrator(scene, maps, gather, march, settings.max_depth,
                                       keeps_bias(parts));
     if (precompute_s) *precompute_s = integrator.precompute_s();
@@ -247,7 +248,8 @@ Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParam
         [&](const Ray& ray, Rng& rng, PhotonIntegrator::ThreadState& ts, const PixelSample& ps) {
             set_time(ts.media, ps.time);
             return integrator.radiance(ray, rng, ts, map_weight(ps, step));
-        });
+        },
+        given);
 }
 
 }  // namespace fogmap

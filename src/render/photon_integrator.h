@@ -89,10 +89,11 @@ int map_step(int spp, int map_spp);
 /// per pixel (or their work, with settings.adaptive: render_film), settings.seed,
 /// settings.max_depth (the worker count is the caller's ThreadLimit).
 /// *precompute_s (may be null) gets the integrator's precomputation time. `parts` other than
-/// None: the integrator's photon_batches, of which the film keeps `parts`.
+/// None: the integrator's photon_batches, of which the film keeps `parts`. `given`: adaptive
+/// sampling across iterations (render_film).
 Film render_photon(const Scene& scene, const PhotonMaps& maps, const GatherParams& gather,
                    const MarchSettings& march, const RenderSettings& settings, bool quiet,
                    RenderStats* stats, double* precompute_s, TileShare tiles = {},
-                   PhotonParts parts = PhotonParts::None);
+                   PhotonParts parts = PhotonParts::None, GivenSamples given = {});
 
 }  // namespace fogmap

@@ -343,11 +343,15 @@ private:
     void warn_many_lights();
     void begin();
     PhotonMaps trace_maps(uint64_t seed, int i, IterationReport* it);
-    Film run_iteration(int i, IterationReport* it, RenderStats* stats);
+    Film run_iteration(int i, IterationReport* it, RenderStats* stats, GivenSamples given);
     Film render_guided(const PhotonMaps& maps, const GatherParams& gather,
-                       const RenderSettings& settings, RenderStats* stats);
+                       const RenderSettings& settings, RenderStats* stats, GivenSamples given);
     Film render_map_end(const PhotonMaps& maps, const GatherParams& gather,
-                        const RenderSettings& settings, RenderStats* stats, IterationReport* it);
+                        const RenderSettings& settings, RenderStats* stats, IterationReport* it,
+                        GivenSamples given);
+    GivenSamples given_samples(int i, PassMeasure* measure) const;
+    void finish_measure();
+    void measure_again(int i);
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
     bool last_round(int ran, int round, double loop_start_s);
     bool target_reached();
@@ -380,6 +384,13 @@ private:
     std::optional<SigmaTable> sigma_table_;  ///< MapEnd: σ_s over boxes, for every iteration
     VolumeMapEnd::Buffers end_buffers_;  ///< MapEnd: each iteration's grids in the last's memory
     std::optional<SunShadows> sun_shadows_;  ///< MapEnd: every iteration's
+    /// Adaptive sampling across iterations (RunSetup::measured): this process's measure of the
+    /// measured iterations, which of them it holds (by index), and once every process holds the
+    /// whole measure, every later iteration's samples per pixel.
+    IterationMeasure measure_;
+    std::vector<char> measured_here_;
+    std::vector<int> later_counts_;
+    bool first_pass_reported_ = false;  ///< iteration 1's photon streams and warnings
 };
 
 RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
@@ -466,7 +477,8 @@ PhotonMaps RunLoop::trace_maps(uint64_t seed, int i, IterationReport* it) {
     // same maps (photon/photon_pass.h), then renders a share of the tiles.
     PhotonPassResult pass = trace_photons(scene_, setup_.plan, setup_.photons, desc_.march, seed,
                                           quiet_pass_, progressive_ ? nullptr : ranks_);
-    if (i == 1) {
+    if (i == 1 && !first_pass_reported_) {  // once: iteration 1 may be measured again
+        first_pass_reported_ = true;
         for (const std::string& w : pass.warnings) warn(w);
         for (const StreamReport& s : pass.streams)
             report_.streams.push_back(
@@ -498,7 +510,8 @@ PhotonMaps RunLoop::trace_maps(uint64_t seed, int i, IterationReport* it) {
 /// The guided tracer: camera paths split by the map's light to come (AdjointSplit), directions
 /// guided at the first advanced.guide_vertices medium vertices.
 Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
-                            const RenderSettings& settings, RenderStats* stats) {
+                            const RenderSettings& settings, RenderStats* stats,
+                            GivenSamples given) {
     std::optional<VolumeGuide> guide;
     std::optional<AdjointGrid> grid;
     Image pixels;
@@ -518,13 +531,13 @@ Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
     return render_path(
         scene_, settings, quiet_pass_, stats,
         grid ? PathPolicy::guided(guide ? &*guide : nullptr, split) : PathPolicy::plain(),
-        setup_.tiles, /*layered=*/true);
+        setup_.tiles, /*layered=*/true, given);
 }
 
 /// Camera paths traced as the path tracer does, ended in the volume map.
 Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                              const RenderSettings& settings, RenderStats* stats,
-                             IterationReport* it) {
+                             IterationReport* it, GivenSamples given) {
     const Timer precompute;
     std::optional<VolumeMapEnd> end;
     if (maps.volume) {
@@ -558,32 +571,91 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
     add_phase(&report_, "precompute", precompute.seconds());
     return render_path(scene_, settings, quiet_pass_, stats,
                        end ? PathPolicy::end_in_map(*end, sun) : PathPolicy::plain(sun),
-                       setup_.tiles, /*layered=*/true);
+                       setup_.tiles, /*layered=*/true, given);
 }
 
 /// Iteration i: the photon pass where the method has maps, then the method's render.
-Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats) {
+Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats, GivenSamples given) {
     const RenderSettings settings = iteration_settings(i);
     if (setup_.method == Method::Path)
         return render_path(scene_, settings, quiet_pass_, stats, PathPolicy::plain(), setup_.tiles,
-                           /*layered=*/true);
+                           /*layered=*/true, given);
     const PhotonMaps maps = trace_maps(settings.seed, i, it);
     if (i == 1) first_gather_ = gather_params(desc_, scene_, maps, progressive_);
     const GatherParams gather = gather_at_iteration(*first_gather_, i, desc_.progressive.alpha);
     it->radii = {gather.global.radius, gather.caustic.radius, gather.volume.radius};
     switch (setup_.method) {
         case Method::Guided:
-            return render_guided(maps, gather, settings, stats);
+            return render_guided(maps, gather, settings, stats, given);
         case Method::MapEnd:
-            return render_map_end(maps, gather, settings, stats, it);
+            return render_map_end(maps, gather, settings, stats, it, given);
         default: {
             double precompute_s = 0.0;
             Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
-                                      stats, &precompute_s, setup_.tiles, photon_parts_);
+                                      stats, &precompute_s, setup_.tiles, photon_parts_, given);
             if (precompute_s > 0.0) add_phase(&report_, "precompute", precompute_s);
             return film;
         }
     }
+}
+
+/// What iteration i's film takes under adaptive sampling across iterations: a measured one
+/// render.spp in every pixel, its PassMeasure into `measure`; a later one the measure's counts.
+GivenSamples RunLoop::given_samples(int i, PassMeasure* measure) const {
+    if (setup_.measured == 0) return {};
+    if (i <= setup_.measured) return {nullptr, measure};
+    FOGMAP_ASSERT(!later_counts_.empty(),
+                  "iterations after the measured ones wait for the measure");
+    return {&later_counts_, nullptr};
+}
+
+/// Every process's measure made whole, and every later iteration's counts from it, the same on
+/// every rank: a process measures again the measured iterations no process of this run measured
+/// (a resumed run's: of its share, (i − 1) mod ranks), or, without ranks to share the measure
+/// with (a part, or alone), every one it did not measure itself; ranks sum their measures
+/// (integers: exact) and rank 0 hands the sum out.
+void RunLoop::finish_measure() {
+    const int measured = setup_.measured;
+    measured_here_.resize(size_t(measured) + 1, 0);
+    for (int i = 1; i <= measured; ++i) {
+        const bool mine = !ranks_ || (i <= base_ && (i - 1) % n_ranks_ == my_rank_);
+        if (!measured_here_[size_t(i)] && mine) measure_again(i);
+    }
+    if (measure_.values.empty()) measure_.zero(desc_.camera.width, desc_.camera.height);
+    if (ranks_ && n_ranks_ > 1) {
+        const Timer reduce;
+        ranks_->sum_to_root(&measure_.values);
+        std::vector<uint8_t> bytes;
+        if (my_rank_ == 0) {
+            bytes.resize(measure_.values.size() * sizeof(int64_t));
+            std::memcpy(bytes.data(), measure_.values.data(), bytes.size());
+        }
+        const std::vector<uint8_t> root = ranks_->all_gather(bytes)[0];
+        std::memcpy(measure_.values.data(), root.data(), root.size());
+        add_phase(&report_, "reduce", reduce.seconds());
+    }
+    later_counts_ = measure_.allocate(measured, desc_.render.spp, sample_unit(desc_, setup_.method),
+                                      desc_.render.seed);
+}
+
+/// Iteration i rendered again for its measure alone (it is in some process's sum): the counts
+/// and the report are as they were but for the phases' times (what it counts, photons, samples,
+/// streams and warnings, is counted where it was summed).
+void RunLoop::measure_again(int i) {
+    const Counts counts = counts_;
+    const Report report = report_;
+    const bool reported = first_pass_reported_;
+    IterationReport it;
+    RenderStats stats;
+    PassMeasure measure;
+    const Film film = run_iteration(i, &it, &stats, {nullptr, &measure});
+    measure_.add(film, measure);
+    measured_here_[size_t(i)] = 1;
+    counts_ = counts;
+    auto phases = std::move(report_.phases_s);
+    report_ = report;
+    report_.phases_s = std::move(phases);
+    first_pass_reported_ = reported;
 }
 
 /// Adds an iteration's film and counts to the run's, and its line to the report.
@@ -693,7 +765,10 @@ std::string RunLoop::bias_above_target(const ErrorEstimate& e, int n) const {
 /// The last iteration the next round may run: progressive.iterations, and with a target the
 /// next look's count (no iteration past it may enter the sum it looks at); 0 = none.
 int RunLoop::iteration_cap() const {
-    const int cap = desc_.progressive.iterations;
+    int cap = desc_.progressive.iterations;
+    // The measured iterations end a round of their own: later ones take their counts.
+    if (setup_.measured > 0 && later_counts_.empty())
+        cap = cap > 0 ? std::min(cap, setup_.measured) : setup_.measured;
     if (next_look_ == 0) return cap;
     return cap > 0 ? std::min(cap, next_look_) : next_look_;
 }
@@ -776,6 +851,8 @@ PipelineResult RunLoop::run() {
     const double loop_start_s = timer_.seconds();
     int ran = base_;  // iterations 1 .. ran are in some rank's sum
     for (int round = 0;; ++round) {
+        if (setup_.measured > 0 && later_counts_.empty() && ran >= setup_.measured)
+            finish_measure();
         // Rank r runs iteration ran + r + 1 of each round, after the checkpoint's, up to the cap.
         const int i = progressive_ ? ran + my_rank_ + 1 : 1;
         const int cap = iteration_cap();
@@ -785,7 +862,13 @@ PipelineResult RunLoop::run() {
             IterationReport it;
             it.index = i;
             RenderStats stats;
-            Film film = run_iteration(i, &it, &stats);
+            PassMeasure measure;
+            Film film = run_iteration(i, &it, &stats, given_samples(i, &measure));
+            if (i <= setup_.measured) {
+                measure_.add(film, measure);
+                measured_here_.resize(size_t(setup_.measured) + 1, 0);
+                measured_here_[size_t(i)] = 1;
+            }
             accumulate(std::move(film), stats, it);
         }
         ran = cap > 0 ? std::min(ran + n_ranks_, cap) : ran + n_ranks_;

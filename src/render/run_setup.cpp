@@ -439,6 +439,11 @@ bool adaptive_sampling(const SceneDesc& desc, Method method) {
     return desc.render.adaptive && first_pass_spp(spp, sample_unit(desc, method)) < spp;
 }
 
+int measured_iterations(const SceneDesc& desc, bool progressive) {
+    if (!desc.render.adaptive || !progressive) return 0;
+    return (kAdaptiveMinSpp + desc.render.spp - 1) / desc.render.spp;
+}
+
 void RunSetup::share_tiles(TileShare share) {
     tiles = share;
     if (share.count > 1 && !share.ranks && run.render.adaptive) {
@@ -451,10 +456,17 @@ void RunSetup::set_reason(std::string why) {
     reason = std::move(why);
     plan.integrator.reason = reason + (schedule.empty() ? "" : "; " + schedule);
     const int spp = run.render.spp;
-    if (run.render.adaptive)
+    if (measured > 0)
         plan.integrator.reason +=
-            std::string("; adaptive sampling") + (progressive ? " in each iteration" : "") +
-            ": a first pass of " + std::to_string(first_pass_spp(spp, sample_unit(run, method))) +
+            "; adaptive sampling across iterations: " +
+            (measured == 1 ? std::string("iteration 1 takes")
+                           : "iterations 1-" + std::to_string(measured) + " take") +
+            " render.spp in every pixel, every later one a uniform iteration's work where they "
+            "show the error";
+    else if (run.render.adaptive)
+        plan.integrator.reason +=
+            "; adaptive sampling: a first pass of " +
+            std::to_string(first_pass_spp(spp, sample_unit(run, method))) +
             " spp, then the rest of render.spp's work where it shows the error";
 }
 
@@ -521,7 +533,8 @@ RunSetup resolve_named(RunSetup s, const SceneDesc& file) {
                       std::to_string(kTargetIterations) + " iterations to reach the target";
     }
     s.progressive = p.enabled();
-    d.render.adaptive = adaptive_sampling(d, s.method);
+    s.measured = measured_iterations(d, s.progressive);
+    d.render.adaptive = s.progressive ? s.measured > 0 : adaptive_sampling(d, s.method);
     s.photons = d.photons;
     s.photons.volume_beams = s.photon() && d.volume.estimator == VolumeEstimator::PhotonBeams;
     s.photons.volume_attempts = volume_attempts(d);

@@ -45,6 +45,10 @@ struct RunSetup {
     /// (path, guided).
     bool progressive = false;
     std::string schedule;  ///< why the iterations are as they are; "" for one plain iteration
+    /// Adaptive sampling across iterations (measured_iterations): iterations 1 .. measured take
+    /// render.spp in every pixel, every later one their measure's counts (IterationMeasure); 0
+    /// for a plain render (render.adaptive: adaptive_sampling) or without it.
+    int measured = 0;
     /// Settings keys the scene sets (away from their defaults) that this method does not read.
     std::vector<std::string> ignored;
     PhotonSettings photons;  ///< the photon pass's budgets and closing rules
@@ -157,10 +161,17 @@ int volume_k(const SceneDesc& desc);
 /// maps: photon_integrator.h, map_step), the path tracer's strata groups otherwise (strata_unit).
 int sample_unit(const SceneDesc& desc, Method method);
 
-/// Whether render.adaptive applies to `desc` run by `method`: at render.spp (an iteration's,
-/// where the run has iterations: each allocates its own) enough to leave a first pass of whole
-/// units (sample_unit) something to allocate (first_pass_spp).
+/// Whether render.adaptive applies to a plain render of `desc` by `method`: render.spp enough to
+/// leave a first pass of whole units (sample_unit) something to allocate (first_pass_spp).
 bool adaptive_sampling(const SceneDesc& desc, Method method);
+
+/// Adaptive sampling across a run of iterations (render.adaptive; render.spp an iteration's):
+/// the first ceil(kAdaptiveMinSpp / render.spp) iterations measure every pixel alike and each
+/// later one takes the work of a uniform iteration where they show the error (one measure of at
+/// least kAdaptiveMinSpp samples a pixel, and no first pass in every iteration: docs/design.md,
+/// Adaptive sampling). Their count; 0 for a plain render or without render.adaptive. Not of the
+/// run's iteration count, so that a run resumed with more iterations measured the same ones.
+int measured_iterations(const SceneDesc& desc, bool progressive);
 
 /// resolve_run(desc).plan.
 Plan make_plan(const SceneDesc& desc);

@@ -143,7 +143,8 @@ struct RenderSettings {
     uint64_t seed = 1;  ///< results are a function of the seed alone
     int threads = 0;    ///< 0 = all cores
     /// Adaptive sampling: spp sets the work, a pixel's samples follow its neighbours' error
-    /// (render/film.h, render_film). The path-traced methods of a plain render (run_setup.h).
+    /// (render/film.h, render_film), in a plain render or across a run's iterations (run_setup.h,
+    /// adaptive_sampling and measured_iterations).
     bool adaptive = true;
 };
 

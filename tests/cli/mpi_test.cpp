@@ -116,13 +116,13 @@ TEST_F(Mpi, ATargetStopsAtTheSameIterationOnEveryRankCount) {
 }
 
 TEST_F(Mpi, AutosSwitchToThePathTracerIsTheSameOnEveryRankCount) {
-    // A target the photon run's bias² puts out of reach (four times smoke.json's volume radius):
+    // A target the photon run's bias² puts out of reach (eight times smoke.json's volume radius):
     // every rank learns it at the look and renders with the path tracer; the image is one
     // process's at 2 and 3 ranks.
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
     const std::string args = "render -q " + scene +
                              " --set camera.width=80 --set camera.height=45 --set render.spp=4 "
-                             "--set render.integrator=auto --set volume.radius=0.344 "
+                             "--set render.integrator=auto --set volume.radius=0.688 "
                              "--set progressive.iterations=16 --target-relmse 1e-7 -o ";
     const test::RunResult plain = run(args + at("plain.exr"), 0);
     ASSERT_EQ(plain.code, 0) << plain.err;

@@ -49,23 +49,25 @@ TEST_F(Parts, MergedPartsAreTheImageOfOneProcess) {
     const std::string fog = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json",
                       smoke = std::string(FOGMAP_SOURCE_DIR) + "/scenes/smoke.json";
     const std::string small = " --set camera.width=40 --set camera.height=24 ";
-    const std::string cases[] = {
-        fog + small + "--spp 2 --set photons.volume=8000 --set photons.global=3000",
-        // Iterations of 2 spp (the rule's 16 would allocate adaptively in each, as parts of
-        // progressive runs do: MergedPartsAreTheImageOfMpirun).
-        fog + small +
-            "--spp 2 --set photons.volume=5000 --iterations 5 "
-            "--set advanced.iteration_spp=2",
-        smoke + small + "--spp 4",  // the map's noise and bias halves in the film
-        smoke + small + "--spp 4 --set render.integrator=path",
+    // The parts of a plain render sample every pixel alike (adaptive sampling's image-wide sums
+    // need the whole image between its passes): one process's image without it. Those of a
+    // progressive run allocate across iterations as one process does: each measures every
+    // measured iteration, its own or not (iterations 1-4 of 2 spp here, for the fifth).
+    const std::string uniform = " --set render.adaptive=false";
+    const std::pair<std::string, std::string> cases[] = {
+        {fog + small + "--spp 2 --set photons.volume=8000 --set photons.global=3000", uniform},
+        {fog + small +
+             "--spp 2 --set photons.volume=5000 --iterations 5 "
+             "--set advanced.iteration_spp=2",
+         ""},
+        {smoke + small + "--spp 4", uniform},  // the map's noise and bias halves in the film
+        {smoke + small + "--spp 4 --set render.integrator=path", uniform},
     };
     int n = 2;
-    for (const std::string& c : cases) {
+    for (const auto& [c, alike] : cases) {
         SCOPED_TRACE(c);
         const std::string args = "render -q " + c;
-        // Parts sample every pixel alike (adaptive sampling's image-wide sums need the whole
-        // image between its passes): one process's image without it.
-        const test::RunResult one = run(args + " --set render.adaptive=false -o " + at("one.exr"));
+        const test::RunResult one = run(args + alike + " -o " + at("one.exr"));
         ASSERT_EQ(one.code, 0) << one.err;
         const test::RunResult merged = render_in_parts(args, n, "m");
         ASSERT_EQ(merged.code, 0) << merged.err;

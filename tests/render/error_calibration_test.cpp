@@ -123,10 +123,10 @@ TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
     }
 }
 
-// A run of iterations that allocate their own samples (adaptive sampling in each, 16 spp: a first
-// pass of 8): the sum weighs each iteration alike whatever a pixel's counts, and its estimate
-// from the iterations' batches holds the truth as a plain render's does.
-TEST(ErrorCalibration, IterationsThatAllocateTheirOwnSamplesAreCalibrated) {
+// A run of iterations that allocate their samples adaptively (16 spp each: iteration 1 measures,
+// the 7 others take its counts): the sum weighs each iteration alike whatever a pixel's counts,
+// and its estimate from the iterations' batches holds the truth as a plain render's does.
+TEST(ErrorCalibration, IterationsThatAllocateTheirSamplesAreCalibrated) {
     Case iterations = kSmoke;
     iterations.runs = {"progressive.iterations=8"};
     const Row row = calibrate(iterations, reference(kSmoke), "path", 16, 10);

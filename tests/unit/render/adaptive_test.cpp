@@ -16,6 +16,7 @@
 #include <array>
 #include <cmath>
 #include <condition_variable>
+#include <limits>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -50,9 +51,9 @@ CameraDesc camera_desc() {
 
 /// The made-up render; pixel `loud` (if any) has 1000 times the noise.
 Film render(uint64_t seed, TileShare share = {}, int loud_x = -1, int loud_y = -1,
-            RenderStats* stats = nullptr) {
+            RenderStats* stats = nullptr, int spp = kSpp, GivenSamples given = {}) {
     return render_film(
-        Camera(camera_desc()), kSpp, seed, share, false, PhotonParts::None, 1, true, true, stats,
+        Camera(camera_desc()), spp, seed, share, false, PhotonParts::None, 1, true, true, stats,
         [] { return State{}; },
         [&](const Ray&, Rng& rng, State& state, const PixelSample& ps) {
             state.rays += uint64_t(cost(ps.y));
@@ -60,8 +61,32 @@ Film render(uint64_t seed, TileShare share = {}, int loud_x = -1, int loud_y = -
             FilmSample f;
             f.beauty = Color(1.0f + loud * sigma(ps.x) * normal(rng));
             return f;
-        });
+        },
+        given);
 }
+
+/// Per-pixel counts summed by quadrant ([bottom][right]), and their work (samples × cost).
+struct Quadrants {
+    double sum[2][2] = {}, work = 0.0;
+    int least = std::numeric_limits<int>::max();
+    explicit Quadrants(const std::vector<int>& counts) {
+        for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+                const int n = counts[size_t(y) * kW + x];
+                least = std::min(least, n);
+                sum[y >= 32][x >= 32] += n;
+                work += double(n) * cost(y);
+            }
+    }
+    double samples() const { return sum[0][0] + sum[0][1] + sum[1][0] + sum[1][1]; }
+    /// Each quadrant's mean count within `tolerance` of want's.
+    void expect_near(const double (&want)[2][2], double tolerance) const {
+        for (int b = 0; b < 2; ++b)
+            for (int r = 0; r < 2; ++r)
+                EXPECT_NEAR(sum[b][r] / (32 * 32) / want[b][r], 1.0, tolerance)
+                    << (b ? "bottom" : "top") << (r ? " right" : " left");
+    }
+};
 
 // batch_counts in closed form against counting sample by sample.
 TEST(Adaptive, BatchCountsCountEverySampleOfTheRangeInItsBatch) {
@@ -81,23 +106,13 @@ TEST(Adaptive, SamplesGoWhereTheErrorPerWorkIsAtAUniformRendersWork) {
     RenderStats stats;
     const Film film = render(7, {}, -1, -1, &stats);
     ASSERT_EQ(film.pixel_spp.size(), size_t(kW * kH));
-    const double want[2][2] = {{16 + 32, 16 + 128}, {16 + 16, 16 + 64}};  // [bottom][right]
-    double sum[2][2] = {}, work = 0.0;
-    for (int y = 0; y < kH; ++y)
-        for (int x = 0; x < kW; ++x) {
-            const int n = film.pixel_spp[size_t(y) * kW + x];
-            ASSERT_GE(n, first_pass_spp(kSpp, 1));
-            sum[y >= 32][x >= 32] += n;
-            work += double(n) * cost(y);
-        }
-    for (int b = 0; b < 2; ++b)
-        for (int r = 0; r < 2; ++r)
-            EXPECT_NEAR(sum[b][r] / (32 * 32) / want[b][r], 1.0, 0.03)
-                << (b ? "bottom" : "top") << (r ? " right" : " left");
+    const Quadrants q(film.pixel_spp);
+    EXPECT_GE(q.least, first_pass_spp(kSpp, 1));
+    q.expect_near({{16 + 32, 16 + 128}, {16 + 16, 16 + 64}}, 0.03);
     // The work of a uniform render, to the dither's rounding.
-    EXPECT_NEAR(work / (kSpp * 2.5 * kW * kH), 1.0, 0.01);
-    EXPECT_EQ(stats.samples, uint64_t(sum[0][0] + sum[0][1] + sum[1][0] + sum[1][1]));
-    EXPECT_EQ(stats.rays, uint64_t(work));
+    EXPECT_NEAR(q.work / (kSpp * 2.5 * kW * kH), 1.0, 0.01);
+    EXPECT_EQ(stats.samples, uint64_t(q.samples()));
+    EXPECT_EQ(stats.rays, uint64_t(q.work));
 }
 
 // A pixel's count comes from its neighbours' first pass, not its own samples (which it would
@@ -206,6 +221,43 @@ TEST(Adaptive, TheEstimateOfAnAdaptiveFilmIsItsVarianceOverItsOwnSamples) {
     EXPECT_NEAR(ratio, 1.0, 0.05);
     EXPECT_NEAR(layer, 1.0, 0.02);  // the variance layer, pixel by pixel
     EXPECT_GE(covered, 18);
+}
+
+// Adaptive sampling across iterations: two measured iterations of 8 spp (uniform: no first pass
+// of their own), then every later iteration of 8 spp takes the work of a uniform one spread as
+// σ / sqrt(c): by hand, Σ c = 2.5 and Σ σ sqrt(c) = 0.375 a pixel on average, so a pixel takes
+// 8 · 2.5 / 0.375 σ / sqrt(c) = 53.3 σ / sqrt(c): 5.33, 21.3 (top), 2.67, 10.7 (bottom).
+TEST(Adaptive, IterationsAfterTheMeasuredOnesTakeAUniformIterationsWorkWhereTheErrorIs) {
+    constexpr int kIterationSpp = 8;
+    std::array<Film, 2> measured;
+    std::array<PassMeasure, 2> m;
+    for (size_t i = 0; i < 2; ++i) {
+        measured[i] = render(40 + i, {}, -1, -1, nullptr, kIterationSpp, {nullptr, &m[i]});
+        ASSERT_TRUE(measured[i].pixel_spp.empty());  // every pixel its 8
+    }
+    IterationMeasure forward, backward;  // the same sums whatever order adds them
+    forward.add(measured[0], m[0]);
+    forward.add(measured[1], m[1]);
+    backward.add(measured[1], m[1]);
+    backward.add(measured[0], m[0]);
+    ASSERT_EQ(forward.values, backward.values);
+    const std::vector<int> counts = forward.allocate(2, kIterationSpp, 1, 9);
+    const Quadrants q(counts);
+    EXPECT_GE(q.least, 1);
+    q.expect_near({{5.33, 21.3}, {2.67, 10.7}}, 0.05);
+    EXPECT_NEAR(q.work / (kIterationSpp * 2.5 * kW * kH), 1.0, 0.02);
+
+    // A later iteration takes them, in one pass, and each pixel's mean is of its own samples.
+    RenderStats stats;
+    const Film later = render(42, {}, -1, -1, &stats, kIterationSpp, {&counts, nullptr});
+    EXPECT_EQ(later.pixel_spp, counts);
+    EXPECT_EQ(stats.samples, uint64_t(q.samples()));
+    double z2 = 0.0;  // Σ of squared standardised errors: about one a pixel
+    for (size_t p = 0; p < counts.size(); ++p) {
+        const double se = sigma(int(p % kW)) / std::sqrt(double(counts[p]));
+        z2 += std::pow((later.beauty.pixels[p].x - 1.0) / se, 2.0);
+    }
+    EXPECT_NEAR(z2 / double(counts.size()), 1.0, 0.1);
 }
 
 }  // namespace

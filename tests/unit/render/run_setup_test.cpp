@@ -155,11 +155,10 @@ TEST(RunSetup, TheScheduleIsInThePlanAndTheSettings) {
         << t.plan.integrator.reason;
 }
 
-// Adaptive sampling (docs/design.md): every integrator, in each iteration of a run that has
-// them too, said in the Plan; off for iterations too small to allocate (a first pass of two of
-// the method's units: strata groups of 4, the photon gather's map step spp / map_spp), and for a
-// share of the tiles without ranks to exchange its sums with (--part), each in the settings that
-// ran.
+// Adaptive sampling (docs/design.md): every integrator, said in the Plan; in a plain render, off
+// where it is too small to allocate (a first pass of two of the method's units: strata groups of
+// 4, the photon gather's map step spp / map_spp), and for a share of the tiles without ranks to
+// exchange its sums with (--part); across a run's iterations; each in the settings that ran.
 TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     json doc = sunlit_cloud();
     doc["render"]["spp"] = 16;
@@ -177,12 +176,31 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
                   std::string::npos)
             << s.plan.integrator.reason;
     }
-    doc["progressive"]["iterations"] = 4;  // 16 spp an iteration
+    // Iterations: the first ceil(kAdaptiveMinSpp / spp) measure for every later one, whatever
+    // the run's count (a resumed run may have more).
+    doc["progressive"]["iterations"] = 4;  // 16 spp an iteration: iteration 1 measures
+    for (const char* integrator : {"path", "photon"}) {
+        const RunSetup s = resolved(integrator, 3);
+        EXPECT_TRUE(s.run.render.adaptive) << integrator;
+        EXPECT_EQ(s.measured, 1) << integrator;
+        EXPECT_NE(s.plan.integrator.reason.find("adaptive sampling across iterations: iteration 1 "
+                                                "takes render.spp in every pixel"),
+                  std::string::npos)
+            << s.plan.integrator.reason;
+    }
+    doc["render"]["spp"] = 4;  // iterations 1 and 2 measure
+    EXPECT_EQ(resolved("path", 0).measured, 2);
     EXPECT_TRUE(resolved("path", 0).run.render.adaptive);
-    EXPECT_TRUE(resolved("photon", 3).run.render.adaptive);
-    doc["render"]["spp"] = 4;
-    EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
+    doc["progressive"]["iterations"] = 2;  // measured, both
+    EXPECT_EQ(resolved("path", 0).measured, 2);
     doc["render"]["spp"] = 16;
+    doc["progressive"]["iterations"] = 0;
+    doc["progressive"]["time_budget"] = 10.0;  // no count: the measured ones, then the rest
+    EXPECT_EQ(resolved("path", 0).measured, 1);
+    doc["render"]["adaptive"] = false;
+    EXPECT_EQ(resolved("path", 0).measured, 0);
+    doc["render"]["adaptive"] = true;
+    doc["progressive"].erase("time_budget");
     doc["progressive"]["iterations"] = 0;
     doc["render"]["adaptive"] = false;
     EXPECT_FALSE(resolved("path", 0).run.render.adaptive);
