@@ -455,8 +455,12 @@ void RunSetup::share_tiles(TileShare share) {
 void RunSetup::set_reason(std::string why) {
     reason = std::move(why);
     plan.integrator.reason = reason + (schedule.empty() ? "" : "; " + schedule);
-    const int spp = run.render.spp;
-    if (measured > 0)
+    const int spp = run.render.spp, iterations = run.progressive.iterations;
+    if (measured > 0 && iterations > 0 && iterations <= measured)
+        plan.integrator.reason += "; adaptive sampling: none (" + std::to_string(iterations) +
+                                  " iterations, no more than the " + std::to_string(measured) +
+                                  " that would measure for the later ones)";
+    else if (measured > 0)
         plan.integrator.reason +=
             "; adaptive sampling across iterations: " +
             (measured == 1 ? std::string("iteration 1 takes")

@@ -191,8 +191,12 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     doc["render"]["spp"] = 4;  // iterations 1 and 2 measure
     EXPECT_EQ(resolved("path", 0).measured, 2);
     EXPECT_TRUE(resolved("path", 0).run.render.adaptive);
-    doc["progressive"]["iterations"] = 2;  // measured, both
+    doc["progressive"]["iterations"] = 2;  // measured, both: nothing allocated, and said so
     EXPECT_EQ(resolved("path", 0).measured, 2);
+    EXPECT_NE(resolved("path", 0).plan.integrator.reason.find("adaptive sampling: none (2 "
+                                                              "iterations, no more than the 2"),
+              std::string::npos)
+        << resolved("path", 0).plan.integrator.reason;
     doc["render"]["spp"] = 16;
     doc["progressive"]["iterations"] = 0;
     doc["progressive"]["time_budget"] = 10.0;  // no count: the measured ones, then the rest
