@@ -456,7 +456,8 @@ float VolumeMapEnd::kappa(const Vec3& x, float rho) const {
     const float inner =
         table_ ? average(table_->cube_average(x, equal_volume_edge(rho * float(M_SQRT1_2)))) : 0.0f;
     if (!(inner > 0.0f)) return kBallKappa;
-    return kBallKappa * average(table_->cube_average(x, equal_volume_edge(rho))) / inner;
+    const float outer = average(table_->cube_average(x, equal_volume_edge(rho)));
+    return kBallKappa * std::min(outer / inner, kMaxSigmaRatio);
 }
 
 void VolumeMapEnd::set_table(const SigmaTable* table) {

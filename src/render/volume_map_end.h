@@ -164,8 +164,12 @@ public:
     // P the lookup's sum (as the shares weigh it), P_h its half's, P_h' its half's within ρ/√2,
     // σ̄ from the SigmaTable's cubes (1 without a table; κ = 2^{3/2} σ̄(ρ) / σ̄(ρ/√2) kept per
     // grid point for the grid's lookups, whose ρ is r): two independent estimates of one bias,
-    // whose product a film averages into bias² (render/film.h, BiasHalves). What it leaves out:
-    // blur on other scales than ρ (the grid's cells, ≈ r / 2), and the moments' cut series.
+    // whose product a film averages into bias² (render/film.h, BiasHalves). σ̄(ρ) / σ̄(ρ/√2) is
+    // taken at most kMaxSigmaRatio: where the inner cube holds little of the medium the outer one
+    // holds (a point just outside dense smoke), its few photons over its small σ̄ are no estimate,
+    // and one such point made a whole image's bias² 0.23 (docs/error-estimate.md). What it leaves
+    // out: blur on other scales than ρ (the grid's cells, ≈ r / 2), and the moments' cut series.
+    static constexpr float kMaxSigmaRatio = 8.0f;
 
     /// Lookups interpolate the photons' directional moments (see Moments below); else they
     /// search the kd-tree, and the grid (when built) gives only the photon counts.
