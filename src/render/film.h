@@ -581,12 +581,8 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         film.pixel_spp = *given.counts;
         film.unit = unit;
         const std::vector<int>& n = film.pixel_spp;
-        pass(
-            false,
-            [&](size_t p) {
-                return PixelRange{0, n[p], n[p]};
-            },
-            nullptr);
+        const auto each_its_own = [&](size_t p) { return PixelRange{0, n[p], n[p]}; };
+        pass(false, each_its_own, nullptr);
     } else if (n1 >= spp) {
         pass(false, first, given.measure);
     } else {
