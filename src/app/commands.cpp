@@ -101,10 +101,10 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
             : pixels * sizeof(Color) * layers;
     const double films = pixels * sizeof(Color) * layers + sum;
     // Adaptive sampling's first-pass figures and allocation (render/adaptive.cpp): 56 bytes a
-    // pixel at most; across iterations, the measure's sums (56) and the later counts (4) beside
-    // the allocation's 64, and on MPI ranks the sums' two copies in their exchange (112). The
-    // error estimate's weights (render/error_estimate.cpp): 9 images at most.
-    const double adaptive = !desc.render.adaptive ? 0.0 : setup.measured > 0 ? 236.0 : 56.0;
+    // pixel at most; across iterations, the measure's sums (56, summed over MPI ranks in place)
+    // and the later counts (4) beside the allocation's 64. The error estimate's weights
+    // (render/error_estimate.cpp): 9 images at most.
+    const double adaptive = !desc.render.adaptive ? 0.0 : setup.measured > 0 ? 124.0 : 56.0;
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) +
                           pixels * (2 + 9) * sizeof(Color) + pixels * 6 + pixels * adaptive;
     // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 48 more

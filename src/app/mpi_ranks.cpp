@@ -56,6 +56,13 @@ public:
         }
         if (rank_ == 0) *values = std::move(out);
     }
+    void sum_to_all(std::vector<int64_t>* values) override {
+        const size_t chunk = reduce_chunk();
+        for (size_t at = 0; at < values->size(); at += chunk) {
+            const int n = static_cast<int>(std::min(chunk, values->size() - at));
+            MPI_Allreduce(MPI_IN_PLACE, values->data() + at, n, MPI_INT64_T, MPI_SUM, comm_);
+        }
+    }
     // In pieces of at most 2^30 bytes over all ranks: MPI counts and displacements are ints.
     std::vector<std::vector<uint8_t>> all_gather(const std::vector<uint8_t>& mine) override {
         const uint64_t n = mine.size();

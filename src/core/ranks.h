@@ -20,6 +20,8 @@ public:
     /// Element-wise integer sum of `values` over all ranks, left on rank 0 (other ranks' values
     /// are unspecified after the call). Integer sums do not depend on the order of arrival.
     virtual void sum_to_root(std::vector<int64_t>* values) = 0;
+    /// Element-wise integer sum of `values` over all ranks, on every rank (MPI_Allreduce).
+    virtual void sum_to_all(std::vector<int64_t>* values) = 0;
     /// Every rank's `mine`, in rank order, on every rank (MPI_Allgatherv): how the ranks sharing
     /// a photon pass see each other's chunks.
     virtual std::vector<std::vector<uint8_t>> all_gather(const std::vector<uint8_t>& mine) = 0;

@@ -352,6 +352,7 @@ private:
     GivenSamples given_samples(int i, PassMeasure* measure) const;
     void finish_measure();
     void measure_again(int i);
+    void add_measure(int i, const Film& film, const PassMeasure& measure);
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
     bool last_round(int ran, int round, double loop_start_s);
     bool target_reached();
@@ -385,8 +386,8 @@ private:
     VolumeMapEnd::Buffers end_buffers_;  ///< MapEnd: each iteration's grids in the last's memory
     std::optional<SunShadows> sun_shadows_;  ///< MapEnd: every iteration's
     /// Adaptive sampling across iterations (RunSetup::measured): this process's measure of the
-    /// measured iterations, which of them it holds (by index), and once every process holds the
-    /// whole measure, every later iteration's samples per pixel.
+    /// measured iterations, which of them it holds (by index, 1 .. measured), and once every
+    /// process holds the whole measure, every later iteration's samples per pixel.
     IterationMeasure measure_;
     std::vector<char> measured_here_;
     std::vector<int> later_counts_;
@@ -412,7 +413,8 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
       photon_parts_(setup.photon_parts()),
       timer_(o.timer ? *o.timer : own_timer_),
-      base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0) {}
+      base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
+      measured_here_(size_t(setup.measured) + 1, 0) {}
 
 void RunLoop::warn(const std::string& text) { warn_in(&report_, speak_, text); }
 
@@ -612,11 +614,10 @@ GivenSamples RunLoop::given_samples(int i, PassMeasure* measure) const {
 /// Every process's measure made whole, and every later iteration's counts from it, the same on
 /// every rank: a process measures again the measured iterations no process of this run measured
 /// (a resumed run's: of its share, (i − 1) mod ranks), or, without ranks to share the measure
-/// with (a part, or alone), every one it did not measure itself; ranks sum their measures
-/// (integers: exact) and rank 0 hands the sum out.
+/// with (a part, or alone), every one it did not measure itself; ranks then sum their measures
+/// on every rank (integers: exact).
 void RunLoop::finish_measure() {
     const int measured = setup_.measured;
-    measured_here_.resize(size_t(measured) + 1, 0);
     for (int i = 1; i <= measured; ++i) {
         const bool mine = !ranks_ || (i <= base_ && (i - 1) % n_ranks_ == my_rank_);
         if (!measured_here_[size_t(i)] && mine) measure_again(i);
@@ -624,14 +625,7 @@ void RunLoop::finish_measure() {
     if (measure_.values.empty()) measure_.zero(desc_.camera.width, desc_.camera.height);
     if (ranks_ && n_ranks_ > 1) {
         const Timer reduce;
-        ranks_->sum_to_root(&measure_.values);
-        std::vector<uint8_t> bytes;
-        if (my_rank_ == 0) {
-            bytes.resize(measure_.values.size() * sizeof(int64_t));
-            std::memcpy(bytes.data(), measure_.values.data(), bytes.size());
-        }
-        const std::vector<uint8_t> root = ranks_->all_gather(bytes)[0];
-        std::memcpy(measure_.values.data(), root.data(), root.size());
+        ranks_->sum_to_all(&measure_.values);
         add_phase(&report_, "reduce", reduce.seconds());
     }
     later_counts_ = measure_.allocate(measured, desc_.render.spp, sample_unit(desc_, setup_.method),
@@ -648,14 +642,18 @@ void RunLoop::measure_again(int i) {
     IterationReport it;
     RenderStats stats;
     PassMeasure measure;
-    const Film film = run_iteration(i, &it, &stats, {nullptr, &measure});
-    measure_.add(film, measure);
-    measured_here_[size_t(i)] = 1;
+    add_measure(i, run_iteration(i, &it, &stats, {nullptr, &measure}), measure);
     counts_ = counts;
     auto phases = std::move(report_.phases_s);
     report_ = report;
     report_.phases_s = std::move(phases);
     first_pass_reported_ = reported;
+}
+
+/// Adds measured iteration i's film and PassMeasure to this process's measure.
+void RunLoop::add_measure(int i, const Film& film, const PassMeasure& measure) {
+    measure_.add(film, measure);
+    measured_here_[size_t(i)] = 1;
 }
 
 /// Adds an iteration's film and counts to the run's, and its line to the report.
@@ -864,11 +862,7 @@ PipelineResult RunLoop::run() {
             RenderStats stats;
             PassMeasure measure;
             Film film = run_iteration(i, &it, &stats, given_samples(i, &measure));
-            if (i <= setup_.measured) {
-                measure_.add(film, measure);
-                measured_here_.resize(size_t(setup_.measured) + 1, 0);
-                measured_here_[size_t(i)] = 1;
-            }
+            if (i <= setup_.measured) add_measure(i, film, measure);
             accumulate(std::move(film), stats, it);
         }
         ran = cap > 0 ? std::min(ran + n_ranks_, cap) : ran + n_ranks_;

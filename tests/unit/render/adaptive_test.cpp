@@ -154,6 +154,7 @@ public:
         return {s_->data[0], s_->data[1]};
     }
     void sum_to_root(std::vector<int64_t>*) override { FOGMAP_ASSERT(false, "not used"); }
+    void sum_to_all(std::vector<int64_t>*) override { FOGMAP_ASSERT(false, "not used"); }
     bool any(bool) override { FOGMAP_ASSERT(false, "not used"); }
     void wait_all() override {}
     int on_this_machine() override { return 2; }
