@@ -90,9 +90,9 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const int layers = 1 + kLayerCount + kBatches + (setup.photon_batches() ? 1 + 4 : 0);
     // Films of the beauty, layers, batches, and map variance and bias halves (render/film.h):
     // the run's and the iteration's it adds (pipeline.cpp), a progressive run's in fixed point
-    // (FixedFilm: 8 bytes a value, no map variance, and its pixels' samples); the reference and,
-    // for progressive runs, the running mean compared with it; the estimate's variance and
-    // samples layers; the PNG's 8-bit RGB and its encoding.
+    // (FixedFilm: 8 bytes a value, no map variance, and its pixels' samples per batch); the
+    // reference and, for progressive runs, the running mean compared with it; the estimate's
+    // variance and samples layers; the PNG's 8-bit RGB and its encoding.
     const double sum =
         setup.progressive
             ? sizeof(int64_t) * double(FixedFilm::value_count(desc.camera.width, desc.camera.height,
@@ -102,9 +102,9 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const double films = pixels * sizeof(Color) * layers + sum;
     // Adaptive sampling's first-pass figures and allocation (render/adaptive.cpp): 56 bytes a
     // pixel at most; across iterations, the measure's sums (56, summed over MPI ranks in place)
-    // and the later counts (4) beside the allocation's 64. The error estimate's weights
-    // (render/error_estimate.cpp): 9 images at most.
-    const double adaptive = !desc.render.adaptive ? 0.0 : setup.measured > 0 ? 124.0 : 56.0;
+    // and the later counts (4) beside the allocation's 64, and the mean's samples per pixel and
+    // batch (36). The error estimate's weights (render/error_estimate.cpp): 9 images at most.
+    const double adaptive = !desc.render.adaptive ? 0.0 : setup.measured > 0 ? 160.0 : 56.0;
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) +
                           pixels * (2 + 9) * sizeof(Color) + pixels * 6 + pixels * adaptive;
     // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 48 more

@@ -14,9 +14,9 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap checkpoint 5\n";
-/// Older formats' first line: "fogmap checkpoint " and their number (1 to 4: 2 had no batches, 3
-/// no bias halves, 4 no samples per pixel).
+constexpr char kMagic[] = "fogmap checkpoint 6\n";
+/// Older formats' first line: "fogmap checkpoint " and their number (1 to 5: 2 had no batches, 3
+/// no bias halves, 4 no samples per pixel, 5 no samples per batch and weighed iterations alike).
 constexpr char kOldMagic[] = "fogmap checkpoint ";
 /// fingerprint, iterations, width, height, layered, bias halves, count count
 constexpr size_t kFields = 7;
@@ -74,14 +74,14 @@ std::string header(const std::string& path) {
     head.resize(size_t(in.gcount()));
     if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return head;
     const size_t old = std::strlen(kOldMagic);
-    for (const char format : {'1', '2', '3', '4'})
+    for (const char format : {'1', '2', '3', '4', '5'})
         if (head.compare(0, old, kOldMagic) == 0 &&
             head.compare(old, 2, std::string{format, '\n'}) == 0)
             throw InputError(path, "format",
                              std::string("written by an older fogmap (format ") + format +
                                  "); remove it to start again");
     throw InputError(path, "format",
-                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 5\")");
+                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 6\")");
 }
 
 /// The fields of a checkpoint of the right size and checksum, each checked against the run.

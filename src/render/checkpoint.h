@@ -34,7 +34,7 @@ struct CheckpointShape {
     int max_iterations = 0;     ///< the most iterations a run takes
 };
 
-/// The file's bytes: a header line "fogmap checkpoint 5", the fields little-endian, then the
+/// The file's bytes: a header line "fogmap checkpoint 6", the fields little-endian, then the
 /// FNV-1a checksum of everything before it.
 std::string checkpoint_bytes(const Checkpoint& c);
 

@@ -31,10 +31,10 @@ std::array<double, kBatches> image_shares(const Film& film) {
     if (film.pixel_spp.empty()) return film.batch_share;
     std::array<double, kBatches> sum{};
     double all = 0.0;
-    for (int n : film.pixel_spp) {
-        const std::array<int, kBatches> counts = batch_counts(0, n, film.unit);
+    for (size_t p = 0; p < film.pixel_spp.size(); ++p) {
+        const std::array<int, kBatches> counts = film.batch_samples(p);
         for (size_t b = 0; b < size_t(kBatches); ++b) sum[b] += counts[b];
-        all += n;
+        all += film.pixel_spp[p];
     }
     for (double& s : sum) s = all > 0.0 ? s / all : 0.0;
     return sum;

@@ -121,6 +121,9 @@ struct Film {
     /// has the same.
     std::vector<int> pixel_spp;
     int unit = 1;
+    /// A sum of iterations' mean (FixedFilm::mean) whose pixels took samples of their own: each
+    /// pixel's samples per batch (pixel_spp their sum); empty otherwise.
+    std::vector<std::array<int, kBatches>> batch_spp;
 
     Film() = default;
     Film(int width, int height, bool layered)
@@ -128,8 +131,13 @@ struct Film {
           layers(layered ? kLayerCount : 0, Image(width, height)),
           batches(kBatches, Image(width, height)) {}
     bool layered() const { return !layers.empty(); }
-    /// Pixel p's batch shares: batch_share, or its own under adaptive sampling.
+    /// Pixel p's batch shares: batch_share, or its own under adaptive sampling (batch_spp's, or
+    /// pixel_spp's batched by `unit`).
     std::array<double, kBatches> shares(size_t p) const;
+    /// Pixel p's samples per batch where pixels have their own (pixel_spp set).
+    std::array<int, kBatches> batch_samples(size_t p) const {
+        return batch_spp.empty() ? batch_counts(0, pixel_spp[p], unit) : batch_spp[p];
+    }
     const Image& layer(Layer l) const {
         FOGMAP_ASSERT(layered(), "an unlayered film has no layers");
         return layers[static_cast<int>(l)];
@@ -155,22 +163,22 @@ struct Film {
 /// iteration of one sample a pixel has but one sample half), is summed into bias half
 /// 2 ((i - 1) mod 2) + h: halves of different parities come from different iterations, whose
 /// samples and maps are independent, so that the mean film's bias_halves keep their contract.
-/// Each pixel's camera samples are summed too (integers, after the images): iterations under
-/// adaptive sampling take different counts, yet each adds its pixel means with the same weight,
-/// so that a count never weighs the values it was chosen from.
+/// Each iteration's pixel means weigh by the pixel's samples in it over the iteration's spp (1
+/// for a uniform iteration), so that under adaptive sampling a pixel's mean is that of all its
+/// samples, and each pixel's samples per batch are summed too (integers, after the images).
 struct FixedFilm {
     static constexpr double kUnit = 4294967296.0;  // 2^32
     int width = 0, height = 0;
     bool layered = false, bias = false;
     /// Beauty, each layer, each batch's beauty, with `bias` the four bias halves (3 per pixel),
-    /// then each pixel's samples (1).
+    /// then each pixel's samples per batch (kBatches).
     std::vector<int64_t> values;
     uint64_t clamped = 0;
 
     /// The values of a sum of `width` x `height` films, layered or not, with bias halves or not.
     static size_t value_count(int width, int height, bool layered, bool bias) {
         return size_t(width) * height *
-               (3 * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0)) + 1);
+               (3 * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0)) + kBatches);
     }
     /// An empty sum (all zero) of films of this shape.
     void zero(int w, int h, bool with_layers, bool with_bias) {
@@ -186,14 +194,22 @@ struct FixedFilm {
         if (values.empty())
             zero(film.beauty.width, film.beauty.height, film.layered(), !film.bias_halves.empty());
         const size_t pixels = size_t(width) * height, image = 3 * pixels,
-                     first_batch = 1 + film.layers.size();
-        const size_t samples = values.size() - pixels;
-        for (size_t p = 0; p < pixels; ++p)
-            values[samples + p] += film.pixel_spp.empty() ? spp : film.pixel_spp[p];
-        add_image(film.beauty, 0);
-        for (size_t l = 0; l < film.layers.size(); ++l) add_image(film.layers[l], (1 + l) * image);
+                     first_batch = 1 + film.layers.size(),
+                     batch = size_t(class_of(index, kBatches));
+        std::vector<double> weight(pixels, 1.0);
+        const size_t samples = values.size() - kBatches * pixels;
+        for (size_t p = 0; p < pixels; ++p) {
+            const int n = film.pixel_spp.empty() ? spp : film.pixel_spp[p];
+            FOGMAP_ASSERT(n >= 0 && n <= 64 * spp,
+                          "a pixel takes at most 64 times an iteration's spp");
+            values[samples + kBatches * p + batch] += n;
+            weight[p] = double(n) / spp;
+        }
+        add_image(film.beauty, weight, 0);
+        for (size_t l = 0; l < film.layers.size(); ++l)
+            add_image(film.layers[l], weight, (1 + l) * image);
         const uint64_t counted = clamped;  // the beauty's clamps are counted once
-        add_image(film.beauty, (first_batch + class_of(index, kBatches)) * image);
+        add_image(film.beauty, weight, (first_batch + batch) * image);
         clamped = counted;
         if (!bias) return;
         FOGMAP_ASSERT(film.bias_halves.size() == 4, "a sum with bias halves adds films with them");
@@ -209,42 +225,68 @@ struct FixedFilm {
                                      share[1] * film.bias_halves[2 + h].pixels[p];
         }
         for (size_t h = 0; h < 2; ++h)
-            add_image(whole[h], (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
+            add_image(whole[h], weight,
+                      (first_batch + kBatches + 2 * size_t(class_of(index, 2)) + h) * image);
         clamped = counted;
     }
-    /// The mean over iterations 1 .. `count`, batched by iteration, and each pixel's samples.
-    Film mean(int count) const {
+    /// The mean over iterations 1 .. `count` of `spp` samples a pixel each (or their own),
+    /// batched by iteration; each pixel's samples, and where pixels' batches differ, their own.
+    Film mean(int count, int spp) const {
         Film film(width, height, layered);
-        size_t n = 0;
-        auto read_image = [&](Image& img, int of) {
-            const double scale = of > 0 ? 1.0 / (kUnit * of) : 0.0;
-            for (Color& c : img.pixels)
-                for (int k = 0; k < 3; ++k) c[k] = static_cast<float>(values[n++] * scale);
+        const size_t pixels = size_t(width) * height, samples = values.size() - kBatches * pixels;
+        // Pixel p's samples in the batches whose bit is set in `mask`; the weight its values add.
+        auto samples_in = [&](size_t p, unsigned mask) {
+            int64_t n = 0;
+            for (size_t b = 0; b < size_t(kBatches); ++b)
+                if (mask >> b & 1u) n += values[samples + kBatches * p + b];
+            return n;
         };
-        read_image(film.beauty, count);
-        for (Image& img : film.layers) read_image(img, count);
+        size_t n = 0;
+        auto read_image = [&](Image& img, unsigned mask) {
+            for (size_t p = 0; p < img.pixels.size(); ++p) {
+                const double of = double(samples_in(p, mask)) / spp;
+                const double scale = of > 0.0 ? 1.0 / (kUnit * of) : 0.0;
+                for (int k = 0; k < 3; ++k) img.pixels[p][k] = float(values[n++] * scale);
+            }
+        };
+        static_assert(kBatches % 2 == 0 && kBatches <= 8,
+                      "batch b holds iterations of parity b mod 2");
+        constexpr unsigned kAll = (1u << kBatches) - 1u, kEven = 0x55u & kAll;
+        read_image(film.beauty, kAll);
+        for (Image& img : film.layers) read_image(img, kAll);
+        bool uniform = true;  // every pixel's batches hold their iterations' spp
         for (int b = 0; b < kBatches; ++b) {
-            const int in_batch = in_class(count, b, kBatches);
-            read_image(film.batches[size_t(b)], in_batch);
-            film.batch_share[size_t(b)] = double(in_batch) / count;
+            read_image(film.batches[size_t(b)], 1u << b);
+            const int iterations = in_class(count, b, kBatches);
+            film.batch_share[size_t(b)] = double(iterations) / count;
+            for (size_t p = 0; p < pixels && uniform; ++p)
+                uniform = samples_in(p, 1u << b) == int64_t(iterations) * spp;
         }
-        if (bias && count >= 2) {  // both parities hold iterations
+        if (bias && count >= 2) {  // both parities hold iterations (batch b has parity b mod 2)
             film.bias_halves.assign(4, Image(width, height));
             for (int i = 0; i < 4; ++i)
-                read_image(film.bias_halves[size_t(i)], in_class(count, i / 2, 2));
+                read_image(film.bias_halves[size_t(i)], i / 2 == 0 ? kEven : kAll & ~kEven);
         }
         film.samples = Image(width, height);
-        const size_t samples = values.size() - film.samples.pixels.size();
-        for (size_t p = 0; p < film.samples.pixels.size(); ++p)
-            film.samples.pixels[p] = Color(float(values[samples + p]));
+        for (size_t p = 0; p < pixels; ++p)
+            film.samples.pixels[p] = Color(float(samples_in(p, kAll)));
+        if (uniform) return film;
+        film.pixel_spp.resize(pixels);
+        film.batch_spp.resize(pixels);
+        for (size_t p = 0; p < pixels; ++p) {
+            film.pixel_spp[p] = int(samples_in(p, kAll));
+            for (size_t b = 0; b < size_t(kBatches); ++b)
+                film.batch_spp[p][b] = int(values[samples + kBatches * p + b]);
+        }
         return film;
     }
 
 private:
-    /// Adds `img` to the values from value `at` on.
-    void add_image(const Image& img, size_t at) {
-        for (const Color& c : img.pixels)
-            for (int k = 0; k < 3; ++k, ++at) values[at] = add_saturated(values[at], c[k]);
+    /// Adds `img`, each pixel times its `weight`, to the values from value `at` on.
+    void add_image(const Image& img, const std::vector<double>& weight, size_t at) {
+        for (size_t p = 0; p < img.pixels.size(); ++p)
+            for (int k = 0; k < 3; ++k, ++at)
+                values[at] = add_saturated(values[at], img.pixels[p][k], weight[p]);
     }
     /// Iteration `index` (from 1) falls in class (index − 1) mod `classes`: its batch (kBatches)
     /// and its bias halves' parity (2).
@@ -253,15 +295,16 @@ private:
     static int in_class(int count, int k, int classes) {
         return count / classes + (k < count % classes ? 1 : 0);
     }
-    int64_t add_saturated(int64_t sum, float v) {
+    /// sum + v w in fixed point, v clamped to ±2^24 (w at most 2^6, so v w kUnit fits).
+    int64_t add_saturated(int64_t sum, float v, double w) {
         constexpr double kMax = 16777216.0;  // 2^24
         const double x = double(v);
         int64_t fixed;
         if (!(std::abs(x) <= kMax)) {
             ++clamped;
-            fixed = x > 0.0 ? int64_t(kMax * kUnit) : -int64_t(kMax * kUnit);
+            fixed = std::llround((x > 0.0 ? kMax : -kMax) * w * kUnit);
         } else {
-            fixed = std::llround(x * kUnit);
+            fixed = std::llround(x * w * kUnit);
         }
         int64_t r;
         if (__builtin_add_overflow(sum, fixed, &r)) {
@@ -275,7 +318,7 @@ private:
 inline std::array<double, kBatches> Film::shares(size_t p) const {
     if (pixel_spp.empty()) return batch_share;
     const int n = pixel_spp[p];
-    const std::array<int, kBatches> counts = batch_counts(0, n, unit);
+    const std::array<int, kBatches> counts = batch_samples(p);
     std::array<double, kBatches> out{};
     for (size_t b = 0; b < size_t(kBatches); ++b) out[b] = n > 0 ? double(counts[b]) / n : 0.0;
     return out;

@@ -16,21 +16,25 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap part 2\n";
-/// Format 1's first line: its progressive sums had no samples per pixel.
-constexpr char kOldMagic[] = "fogmap part 1\n";
+constexpr char kMagic[] = "fogmap part 3\n";
+/// Older formats' first line: "fogmap part " and their number (1: its progressive sums had no
+/// samples per pixel; 2: none per batch, and weighed iterations alike).
+constexpr char kOldMagic[] = "fogmap part ";
 constexpr uint64_t kMaxPartBytes = uint64_t(1) << 40;   ///< a bound before reading; sizes follow
 constexpr uint64_t kMaxJsonBytes = uint64_t(64) << 20;  ///< the description (settings, report)
 
 /// Fails unless `head` starts with the part file's first line.
 void check_magic(const std::string& path, const std::string& head) {
-    if (head.compare(0, std::strlen(kOldMagic), kOldMagic) == 0)
-        throw InputError(path, "format",
-                         "written by an older fogmap (format 1); render the parts again with this "
-                         "one");
-    if (head.compare(0, std::strlen(kMagic), kMagic) != 0)
-        throw InputError(path, "format",
-                         "not a fogmap part file (its first line is not \"fogmap part 2\")");
+    if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return;
+    const size_t old = std::strlen(kOldMagic);
+    for (const char format : {'1', '2'})
+        if (head.compare(0, old, kOldMagic) == 0 &&
+            head.compare(old, 2, std::string{format, '\n'}) == 0)
+            throw InputError(path, "format",
+                             std::string("written by an older fogmap (format ") + format +
+                                 "); render the parts again with this one");
+    throw InputError(path, "format",
+                     "not a fogmap part file (its first line is not \"fogmap part 3\")");
 }
 
 template <class T>

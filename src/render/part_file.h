@@ -29,7 +29,7 @@ struct PartFile {
     PartSums sums;
 };
 
-/// The file's bytes: a header line "fogmap part 2", a JSON block (the run, the film's shape, the
+/// The file's bytes: a header line "fogmap part 3", a JSON block (the run, the film's shape, the
 /// part's unfinished report), the counts, the film's values (runs of zeros stored as their
 /// length: a plain render's part holds its own tiles alone), then the FNV-1a checksum of
 /// everything before it, all integers little-endian.

@@ -199,7 +199,7 @@ struct RunEnd {
                     std::to_string(sum.clamped) +
                         " pixel values or sums beyond the fixed-point range (radiance 1.7e7) were "
                         "clamped");
-        return sum.mean(int(counts.iterations));
+        return sum.mean(int(counts.iterations), setup.run.render.spp);
     }
     void finish(Film* film, Report* report) const;
 
@@ -670,7 +670,9 @@ void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it
     // The running error: of the mean so far, known to a lone rank that started at 1.
     const bool running_error = o_.reference && n_ranks_ == 1 && base_ == 0;
     if (running_error && progressive_)
-        it.rel_mse = image_error(sum_.mean(int(counts_.iterations)).beauty, *o_.reference).rel_mse;
+        it.rel_mse =
+            image_error(sum_.mean(int(counts_.iterations), desc_.render.spp).beauty, *o_.reference)
+                .rel_mse;
     report_.iterations.push_back(it);
     if (!progressive_ || quiet_) return;
     char radii[100] = "";
@@ -720,7 +722,8 @@ bool RunLoop::target_reached() {
     bool stop = false, bias = false;
     if (root_) {
         const int n = int(counts_.iterations);
-        const ErrorEstimate e = estimate_error(sum_.mean(n), run_spp(desc_, true, n));
+        const ErrorEstimate e =
+            estimate_error(sum_.mean(n, desc_.render.spp), run_spp(desc_, true, n));
         const bool reached = meets_target(e, desc_.progressive.target_relmse);
         const std::string why = reached ? "" : bias_above_target(e, n);
         if (!why.empty()) report_.error.unreached = why;

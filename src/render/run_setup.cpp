@@ -463,10 +463,11 @@ void RunSetup::set_reason(std::string why) {
     else if (measured > 0)
         plan.integrator.reason +=
             "; adaptive sampling across iterations: " +
-            (measured == 1 ? std::string("iteration 1 takes")
-                           : "iterations 1-" + std::to_string(measured) + " take") +
-            " render.spp in every pixel, every later one a uniform iteration's work where they "
-            "show the error";
+            (measured == 1 ? std::string("iteration 1 takes its")
+                           : "iterations 1-" + std::to_string(measured) + " take their") +
+            " " + std::to_string(spp) +
+            " spp in every pixel, every later one a uniform iteration's work where they show the "
+            "error, and each pixel is the mean of all its samples";
     else if (run.render.adaptive)
         plan.integrator.reason +=
             "; adaptive sampling: a first pass of " +

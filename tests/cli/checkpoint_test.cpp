@@ -19,9 +19,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The layout of "fogmap checkpoint 5": the header line, then 8-byte fields (fingerprint,
+// The layout of "fogmap checkpoint 6": the header line, then 8-byte fields (fingerprint,
 // iterations, width, height, layered, bias halves, count of counts, counts, ...).
-constexpr size_t kHeader = 20;  // "fogmap checkpoint 5\n"
+constexpr size_t kHeader = 20;  // "fogmap checkpoint 6\n"
 constexpr size_t kIterations = kHeader + 8, kWidth = kHeader + 16, kBias = kHeader + 40,
                  kCounts = kHeader + 48, kFirstCount = kHeader + 56;
 
@@ -109,6 +109,7 @@ TEST_F(Checkpoints, CorruptOrForeignFieldsAreRefusedByName) {
     expect_refused("fogmap checkpoint 2\n" + good_.substr(kHeader), "format");
     expect_refused("fogmap checkpoint 3\n" + good_.substr(kHeader), "format");
     expect_refused("fogmap checkpoint 4\n" + good_.substr(kHeader), "format");
+    expect_refused("fogmap checkpoint 5\n" + good_.substr(kHeader), "format");
     expect_refused(with_field(good_, kBias, 1 - field(good_, kBias)), "bias");
     expect_refused("not a checkpoint", "format");
     expect_refused(with_field(good_, kHeader, 12345), "fingerprint");

@@ -143,6 +143,7 @@ TEST_F(Parts, PartsOfAnotherRunOrMissingRepeatedOrCorruptAreRefusedByName) {
     const std::string corrupt = tmp_.write("corrupt.fogpart", flipped),
                       cut = tmp_.write("cut.fogpart", good.substr(0, good.size() / 2)),
                       format1 = tmp_.write("f1.fogpart", "fogmap part 1\n" + good.substr(14)),
+                      format2 = tmp_.write("f2.fogpart", "fogmap part 2\n" + good.substr(14)),
                       old = tmp_.write("m.exr", "an older image");
     struct Case {
         std::string parts, file, field;
@@ -155,7 +156,8 @@ TEST_F(Parts, PartsOfAnotherRunOrMissingRepeatedOrCorruptAreRefusedByName) {
         {p1 + " " + p1, p1, "part"},         // part 1 twice
         {p1 + " " + corrupt, corrupt, "checksum"},
         {p1 + " " + cut, cut, "checksum"},
-        {p1 + " " + format1, format1, "format"},          // an older fogmap's
+        {p1 + " " + format1, format1, "format"},  // an older fogmap's
+        {p1 + " " + format2, format2, "format"},
         {p1 + " " + at("s.json"), at("s.json"), "size"},  // no such file
         {p1 + " " + std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json",
          std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json", "format"},

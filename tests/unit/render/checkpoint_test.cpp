@@ -18,7 +18,7 @@ namespace fogmap {
 namespace {
 
 constexpr uint64_t kFingerprint = 0x0123456789ABCDEFull;
-constexpr char kMagic[] = "fogmap checkpoint 5\n";
+constexpr char kMagic[] = "fogmap checkpoint 6\n";
 
 /// A run of at most 10 iterations, by default 3 x 2, layered and with bias halves.
 CheckpointShape shape(bool layered = true, int width = 3, int height = 2, bool bias = true) {
@@ -44,8 +44,9 @@ Checkpoint hand_built(bool layered = true, int width = 3, int height = 2, bool b
     c.sum.height = height;
     c.sum.layered = layered;
     c.sum.bias = bias;
-    c.sum.values.resize(size_t(
-        width * height * (3 * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0)) + 1)));
+    c.sum.values.resize(
+        size_t(width * height *
+               (3 * (1 + (layered ? kLayerCount : 0) + kBatches + (bias ? 4 : 0)) + kBatches)));
     for (size_t i = 0; i < c.sum.values.size(); ++i)
         c.sum.values[i] =
             int64_t((uint64_t(i) * 0x9E3779B97F4A7C15ull) ^ (i % 3 ? 0 : uint64_t(1) << 63));
@@ -112,8 +113,8 @@ TEST(Checkpoint, RoundTripOfAFilmSumGivesTheSameMean) {
     const test::TempDir dir("fogmap_checkpoint");
     const Checkpoint r =
         read_checkpoint(dir.write("a.ckpt", checkpoint_bytes(c)), shape(false, 3, 2, false));
-    EXPECT_EQ(r.sum.mean(r.iterations).beauty.pixels, film.beauty.pixels);
-    EXPECT_EQ(r.sum.mean(r.iterations).samples.at(2, 1), Color(8.0f));  // 4 + 4 spp
+    EXPECT_EQ(r.sum.mean(r.iterations, 4).beauty.pixels, film.beauty.pixels);
+    EXPECT_EQ(r.sum.mean(r.iterations, 4).samples.at(2, 1), Color(8.0f));  // 4 + 4 spp
 }
 
 /// The InputError reading `bytes` as a checkpoint of `s` gives; it must name the file.

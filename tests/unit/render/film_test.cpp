@@ -82,9 +82,9 @@ TEST(FixedFilm, MeanOfGridValuesIsTheExactMean) {
     EXPECT_EQ(sum.width, w);
     EXPECT_EQ(sum.height, h);
     EXPECT_TRUE(sum.layered);
-    EXPECT_EQ(sum.values.size(), size_t(w * h * (3 * (1 + kLayerCount + kBatches) + 1)));
+    EXPECT_EQ(sum.values.size(), size_t(w * h * (3 * (1 + kLayerCount + kBatches) + kBatches)));
     EXPECT_EQ(sum.clamped, 0u);
-    const Film mean = sum.mean(count);
+    const Film mean = sum.mean(count, 1);
     ASSERT_TRUE(mean.layered());
     auto check = [&](const Image& got, auto&& image_of) {
         for (size_t p = 0; p < got.pixels.size(); ++p)
@@ -110,7 +110,7 @@ TEST(FixedFilm, MeanOfAnyValuesIsTheMeanToRounding) {
         }));
     FixedFilm sum;
     for (int f = 0; f < count; ++f) sum.add(films[f], f + 1, 1);
-    const Film mean = sum.mean(count);
+    const Film mean = sum.mean(count, 1);
     EXPECT_FALSE(mean.layered());
     for (size_t p = 0; p < mean.beauty.pixels.size(); ++p)
         for (int c = 0; c < 3; ++c) {
@@ -129,7 +129,7 @@ TEST(FixedFilm, IterationIGoesToBatchIMinusOneModKAndItsMeanIsTheBatchsMean) {
     FixedFilm sum;
     for (int f = 1; f <= count; ++f)
         sum.add(film_of(2, 2, false, [&](int, int, int) { return float(f); }), f, 1);
-    const Film mean = sum.mean(count);
+    const Film mean = sum.mean(count, 1);
     double shares = 0.0, weighted = 0.0;
     for (int b = 0; b < kBatches; ++b) {
         double indices = 0.0;
@@ -162,23 +162,24 @@ TEST(FixedFilm, BiasHalvesAreSummedByIterationParity) {
         sum.add(film, f, 1);
     }
     EXPECT_TRUE(sum.bias);
-    EXPECT_EQ(sum.values.size(), size_t(2 * (3 * (1 + kLayerCount + kBatches + 4) + 1)));
-    const Film mean = sum.mean(count);
+    EXPECT_EQ(sum.values.size(), size_t(2 * (3 * (1 + kLayerCount + kBatches + 4) + kBatches)));
+    const Film mean = sum.mean(count, 1);
     ASSERT_EQ(mean.bias_halves.size(), 4u);
     for (int i = 0; i < 4; ++i) {
         const double iterations = i / 2 == 0 ? (1 + 3 + 5) / 3.0 : (2 + 4) / 2.0;
         EXPECT_NEAR(mean.bias_halves[size_t(i)].at(1, 0).y, 10 * (i % 2) + 25 + iterations, 1e-5)
             << "half " << i;
     }
-    EXPECT_TRUE(sum.mean(1).bias_halves.empty());  // one parity alone: no independent pair
+    EXPECT_TRUE(sum.mean(1, 1).bias_halves.empty());  // one parity alone: no independent pair
 }
 
 // Adaptive sampling in iterations: each film's pixels have samples of their own (Film::pixel_spp,
-// batched in units of 2). Pixel 0 took 6 (batches 0, 1, 2 two each: sample half 0 holds 4 / 6 of
-// them), pixel 1 took 2 (batch 0: half 0 holds all). Bias half s, h holds 100 s + 10 h, so the
-// pixel's estimate for photon half h is 10 h + 100 / 3 and 10 h. The sum adds each pixel's samples:
-// 6 + 6 + 5 and 2 + 2 + 5 after a third, uniform film of 5; each film weighs 1 in the mean.
-TEST(FixedFilm, AdaptiveFilmsAddTheirPixelsOwnSamplesAndShares) {
+// batched in units of 2) beside an iteration's nominal 5. Pixel 0 took 6 (batches 0, 1, 2 two
+// each: sample half 0 holds 4 / 6 of them), pixel 1 took 2 (batch 0: half 0 holds all), in films
+// 1 and 2; film 3 took 5 in each (half 0 holds 1 / 2). Film f's pixel p is f + 10 p, and bias
+// half s, h holds 100 s + 10 h, so a film's estimate for photon half h is 10 h + 100 times its
+// sample half 1's share. The sum weighs each film's pixel by its samples there.
+TEST(FixedFilm, AdaptiveFilmsWeighTheirPixelsBySamples) {
     FixedFilm sum;
     for (int f = 1; f <= 3; ++f) {
         Film film = film_of(2, 1, true, [&](int, int p, int) { return float(f + 10 * p); });
@@ -193,16 +194,44 @@ TEST(FixedFilm, AdaptiveFilmsAddTheirPixelsOwnSamplesAndShares) {
         film.batch_share = {0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // the first pass's
         sum.add(film, f, 5);
     }
-    const Film mean = sum.mean(3);
-    EXPECT_EQ(mean.samples.at(0, 0), Color(17.0f));
-    EXPECT_EQ(mean.samples.at(1, 0), Color(9.0f));
-    EXPECT_NEAR(mean.beauty.at(0, 0).y, 2.0, 1e-5);  // (1 + 2 + 3) / 3, not weighed by samples
+    const Film mean = sum.mean(3, 5);
+    EXPECT_EQ(mean.samples.at(0, 0), Color(17.0f));  // 6 + 6 + 5
+    EXPECT_EQ(mean.samples.at(1, 0), Color(9.0f));   // 2 + 2 + 5
+    EXPECT_NEAR(mean.beauty.at(0, 0).y, (6 * 1 + 6 * 2 + 5 * 3) / 17.0, 1e-5);
+    EXPECT_NEAR(mean.beauty.at(1, 0).y, (2 * 11 + 2 * 12 + 5 * 13) / 9.0, 1e-5);
+    // Each batch holds one film: its mean is that film's, its share of the pixel its samples'.
+    ASSERT_EQ(mean.pixel_spp, (std::vector<int>{17, 9}));
+    const std::array<double, kBatches> share0 = mean.shares(0), share1 = mean.shares(1);
+    for (int b = 0; b < 3; ++b) {
+        EXPECT_NEAR(mean.batches[size_t(b)].at(1, 0).y, 11.0 + b, 1e-5);
+        EXPECT_DOUBLE_EQ(share0[size_t(b)], (b < 2 ? 6.0 : 5.0) / 17.0);
+        EXPECT_DOUBLE_EQ(share1[size_t(b)], (b < 2 ? 2.0 : 5.0) / 9.0);
+    }
     ASSERT_EQ(mean.bias_halves.size(), 4u);
-    for (int h = 0; h < 2; ++h) {  // iterations 1 and 3 (odd) in half 0 + h, 2 in half 2 + h
+    for (int h = 0; h < 2; ++h) {  // films 1 and 3 (odd) in half 0 + h, 2 in half 2 + h
         EXPECT_NEAR(mean.bias_halves[size_t(2 + h)].at(0, 0).y, 10 * h + 100.0 / 3.0, 1e-4);
         EXPECT_NEAR(mean.bias_halves[size_t(2 + h)].at(1, 0).y, 10 * h, 1e-5);
-        EXPECT_NEAR(mean.bias_halves[size_t(h)].at(1, 0).y, (10 * h + 10 * h + 50) / 2.0, 1e-5);
+        EXPECT_NEAR(mean.bias_halves[size_t(h)].at(0, 0).y,
+                    (6 * (10 * h + 100.0 / 3.0) + 5 * (10 * h + 50)) / 11.0, 1e-4);
+        EXPECT_NEAR(mean.bias_halves[size_t(h)].at(1, 0).y, (2 * 10 * h + 5 * (10 * h + 50)) / 7.0,
+                    1e-5);
     }
+}
+
+// Films of the same samples in every pixel: the mean is the films' plain mean, and it keeps no
+// samples of each pixel's own.
+TEST(FixedFilm, UniformFilmsKeepOneShareForEveryPixel) {
+    FixedFilm sum;
+    for (int f = 1; f <= 3; ++f) {
+        Film film = film_of(2, 1, false, [&](int, int p, int) { return float(f + 10 * p); });
+        if (f == 2) film.pixel_spp = {4, 4};  // given, but as many as the others
+        sum.add(film, f, 4);
+    }
+    const Film mean = sum.mean(3, 4);
+    EXPECT_TRUE(mean.pixel_spp.empty());
+    EXPECT_TRUE(mean.batch_spp.empty());
+    EXPECT_FLOAT_EQ(mean.beauty.at(1, 0).y, 12.0f);
+    EXPECT_EQ(mean.samples.at(1, 0), Color(12.0f));
 }
 
 TEST(FixedFilm, SumDoesNotDependOnTheOrderOfTheFilms) {
@@ -234,7 +263,7 @@ TEST(FixedFilm, ValuesBeyondTwoToThe24AreClampedAndCounted) {
     FixedFilm sum;
     sum.add(film, 1, 1);
     EXPECT_EQ(sum.clamped, 3u);
-    const Film mean = sum.mean(1);
+    const Film mean = sum.mean(1, 1);
     EXPECT_EQ(mean.beauty.at(0, 0), Color(kMax, -kMax, 3.0f));
     EXPECT_EQ(mean.beauty.at(1, 0), Color(kMax, -kMax, kMax));
 }

@@ -178,13 +178,14 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     }
     // Iterations: the first ceil(kAdaptiveMinSpp / spp) measure for every later one, whatever
     // the run's count (a resumed run may have more).
-    doc["progressive"]["iterations"] = 4;  // 16 spp an iteration: iteration 1 measures
+    doc["progressive"]["iterations"] = 4;  // 16 spp an iteration or more: iteration 1 measures
     for (const char* integrator : {"path", "photon"}) {
         const RunSetup s = resolved(integrator, 3);
         EXPECT_TRUE(s.run.render.adaptive) << integrator;
         EXPECT_EQ(s.measured, 1) << integrator;
-        EXPECT_NE(s.plan.integrator.reason.find("adaptive sampling across iterations: iteration 1 "
-                                                "takes render.spp in every pixel"),
+        EXPECT_NE(s.plan.integrator.reason.find(
+                      "adaptive sampling across iterations: iteration 1 takes its " +
+                      std::to_string(s.run.render.spp) + " spp in every pixel"),
                   std::string::npos)
             << s.plan.integrator.reason;
     }
