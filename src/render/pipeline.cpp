@@ -191,6 +191,8 @@ struct RunEnd {
     const Counts& counts;
     int own = 1;  ///< iterations rank 0 (or part 1) ran itself
     bool speak = false;
+    /// Iteration 1's own estimate, stated by a run that ends after it (or null).
+    const ErrorEstimate* first = nullptr;
 
     /// The mean of a progressive sum over the counted iterations, its clamps warned of.
     Film mean(const FixedFilm& sum, Report* report) const {
@@ -255,8 +257,8 @@ void RunEnd::finish(Film* film, Report* report) const {
 /// bias halves measure, and the photon gather's maps' noise when one set serves every sample.
 void RunEnd::estimate(Film* film, Report* report) const {
     const Timer timer;
-    const bool progressive = setup.progressive;
-    ErrorEstimate e = estimate_error(*film, report->spp);
+    const bool progressive = setup.progressive, first_alone = counts.iterations == 1 && first;
+    ErrorEstimate e = first_alone ? *first : estimate_error(*film, report->spp);
     ErrorReport& r = report->error;
     r.valid = e.valid;
     r.why = progressive ? "needs at least 2 iterations" : "needs at least 2 samples per pixel";
@@ -269,7 +271,7 @@ void RunEnd::estimate(Film* film, Report* report) const {
     r.bias_lo = e.bias2.lo;
     r.bias_hi = e.bias2.hi;
     r.batches = e.batches;
-    r.batched_by = progressive ? "iterations" : "samples";
+    r.batched_by = progressive && !first_alone ? "iterations" : "samples";
     r.tail_share = e.tail_share;
     r.tail = e.tail;
     r.top_x = e.top_x;
@@ -347,8 +349,8 @@ private:
     Film render_guided(const PhotonMaps& maps, const GatherParams& gather,
                        const RenderSettings& settings, RenderStats* stats, GivenSamples given);
     Film render_map_end(const PhotonMaps& maps, const GatherParams& gather,
-                        const RenderSettings& settings, RenderStats* stats, IterationReport* it,
-                        GivenSamples given);
+                        const RenderSettings& settings, PhotonParts parts, RenderStats* stats,
+                        IterationReport* it, GivenSamples given);
     GivenSamples given_samples(int i, PassMeasure* measure) const;
     void finish_measure();
     void measure_again(int i);
@@ -370,7 +372,6 @@ private:
     Ranks* const ranks_;
     const int n_ranks_, my_rank_;
     const bool root_, speak_, quiet_, progressive_, quiet_pass_;
-    const PhotonParts photon_parts_;  ///< RunSetup::photon_parts
     const Timer own_timer_;
     const Timer& timer_;
     const int base_;  ///< iterations of the checkpoint resumed from
@@ -392,6 +393,9 @@ private:
     std::vector<char> measured_here_;
     std::vector<int> later_counts_;
     bool first_pass_reported_ = false;  ///< iteration 1's photon streams and warnings
+    /// Iteration 1's own error estimate, where the run may end after it and this process ran it
+    /// (RunSetup::first_iteration_estimate).
+    std::optional<ErrorEstimate> first_estimate_;
 };
 
 RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
@@ -411,7 +415,6 @@ RunLoop::RunLoop(const RunSetup& setup, const Scene& scene, const RunOptions& o)
       quiet_(o.quiet || !speak_),
       progressive_(setup.progressive),
       quiet_pass_(quiet_ || progressive_),  // progressive runs print a line per iteration
-      photon_parts_(setup.photon_parts()),
       timer_(o.timer ? *o.timer : own_timer_),
       base_(o.checkpoints && o.checkpoints->resume ? o.checkpoints->resume->iterations : 0),
       measured_here_(size_t(setup.measured) + 1, 0) {}
@@ -538,7 +541,7 @@ Film RunLoop::render_guided(const PhotonMaps& maps, const GatherParams& gather,
 
 /// Camera paths traced as the path tracer does, ended in the volume map.
 Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
-                             const RenderSettings& settings, RenderStats* stats,
+                             const RenderSettings& settings, PhotonParts parts, RenderStats* stats,
                              IterationReport* it, GivenSamples given) {
     const Timer precompute;
     std::optional<VolumeMapEnd> end;
@@ -551,7 +554,7 @@ Film RunLoop::render_map_end(const PhotonMaps& maps, const GatherParams& gather,
                                                          std::pow(gather.volume.radius / r1, 3.0f);
         it->volume_k = k;
         end.emplace(*maps.volume, scene_.media, gather.volume.radius, gather.gather_depth, k,
-                    desc_.volume.gather_tau, &end_buffers_, photon_parts_);
+                    desc_.volume.gather_tau, &end_buffers_, parts);
         report_.precompute_nodes += end->nodes();
         if (end->wants_table() || end->batched()) {  // batched: RadiusBias's σ̄ too
             if (!sigma_table_) {
@@ -590,11 +593,12 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats, Give
         case Method::Guided:
             return render_guided(maps, gather, settings, stats, given);
         case Method::MapEnd:
-            return render_map_end(maps, gather, settings, stats, it, given);
+            return render_map_end(maps, gather, settings, setup_.photon_parts(i), stats, it, given);
         default: {
             double precompute_s = 0.0;
-            Film film = render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_,
-                                      stats, &precompute_s, setup_.tiles, photon_parts_, given);
+            Film film =
+                render_photon(scene_, maps, gather, desc_.march, settings, quiet_pass_, stats,
+                              &precompute_s, setup_.tiles, setup_.photon_parts(i), given);
             if (precompute_s > 0.0) add_phase(&report_, "precompute", precompute_s);
             return film;
         }
@@ -658,6 +662,11 @@ void RunLoop::add_measure(int i, const Film& film, const PassMeasure& measure) {
 
 /// Adds an iteration's film and counts to the run's, and its line to the report.
 void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it) {
+    if (progressive_ && it.index == 1 && setup_.first_iteration_estimate()) {
+        const Timer timer;
+        first_estimate_ = estimate_error(film, desc_.render.spp);
+        add_phase(&report_, "estimate", timer.seconds());
+    }
     if (progressive_)
         sum_.add(film, it.index, desc_.render.spp);
     else
@@ -842,7 +851,8 @@ bool RunLoop::reduce() {
 
 /// Rank 0's report from its counts and film.
 void RunLoop::finish_report() {
-    RunEnd{setup_, counts_, own_, speak_}.finish(&out_.film, &report_);
+    const ErrorEstimate* first = first_estimate_ ? &*first_estimate_ : nullptr;
+    RunEnd{setup_, counts_, own_, speak_, first}.finish(&out_.film, &report_);
 }
 
 PipelineResult RunLoop::run() {

@@ -424,9 +424,16 @@ bool RunSetup::photon_batches() const {
             PhotonIntegrator::batches_supported(run.volume.estimator, run.global.final_gather));
 }
 
-PhotonParts RunSetup::photon_parts() const {
+PhotonParts RunSetup::photon_parts(int i) const {
     if (!photon_batches()) return PhotonParts::None;
-    return progressive ? PhotonParts::Bias : PhotonParts::NoiseAndBias;
+    const bool noise = !progressive || (i == 1 && first_iteration_estimate());
+    return noise ? PhotonParts::NoiseAndBias : PhotonParts::Bias;
+}
+
+bool RunSetup::first_iteration_estimate() const {
+    const ProgressiveDesc& p = run.progressive;
+    return progressive && (p.time_budget > 0.0f || p.iterations == 1) &&
+           (method == Method::Path || method == Method::Guided || photon_batches());
 }
 
 int sample_unit(const SceneDesc& desc, Method method) {

@@ -63,9 +63,15 @@ struct RunSetup {
     /// their own, and its sum keeps the bias alone: FixedFilm::bias); every lookup of the photon
     /// gather must be able to (PhotonIntegrator::batches_supported).
     bool photon_batches() const;
-    /// What an iteration's film keeps of them: none, or the maps' noise and bias, or in a run of
-    /// iterations their bias alone (the sum keeps no noise of one iteration's maps).
-    PhotonParts photon_parts() const;
+    /// What iteration i's film keeps of them: none, or the maps' noise and bias, or in a run of
+    /// iterations their bias alone (the sum keeps no noise of one iteration's maps) but in its
+    /// first iteration where first_iteration_estimate holds.
+    PhotonParts photon_parts(int i) const;
+    /// Whether a run of iterations that ends after its first states that iteration's own error
+    /// estimate, as a plain render does (the sum of one iteration has one batch): where it may
+    /// end there (a time budget, or one iteration) and the film holds all its noise (the path
+    /// tracers', or the photon methods' that read their maps in batches).
+    bool first_iteration_estimate() const;
     /// Sets the reason, and the Plan's integrator line with it (and the schedule's, and whether
     /// adaptive sampling runs).
     void set_reason(std::string why);

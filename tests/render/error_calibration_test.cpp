@@ -124,12 +124,26 @@ TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
 }
 
 // A run of iterations that allocate their samples adaptively (16 spp each: iteration 1 measures,
-// the 7 others take its counts): the sum weighs each iteration alike whatever a pixel's counts,
-// and its estimate from the iterations' batches holds the truth as a plain render's does.
+// the 7 others take its counts): the sum weighs each iteration's pixel by its samples there, and
+// its estimate from the iterations' batches holds the truth as a plain render's does.
 TEST(ErrorCalibration, IterationsThatAllocateTheirSamplesAreCalibrated) {
     Case iterations = kSmoke;
     iterations.runs = {"progressive.iterations=8"};
     const Row row = calibrate(iterations, reference(kSmoke), "path", 16, 10);
+    EXPECT_GE(row.covered, 8);
+    EXPECT_EQ(row.unresolved, 0);
+    EXPECT_GE(row.median_ratio, 0.75);
+    EXPECT_LE(row.median_ratio, 1.33);
+}
+
+// A run of iterations that ends after its first (a time budget's may) has one batch of
+// iterations; it states that iteration's own estimate, from its sample batches and, for the
+// default's camera paths ending in the volume map, its map's noise and bias (RunSetup::
+// first_iteration_estimate), and that holds the truth as a plain render's does.
+TEST(ErrorCalibration, ARunThatEndsAfterItsFirstIterationStatesThatIterationsEstimate) {
+    Case one = kSmoke;
+    one.runs = {"progressive.iterations=1"};
+    const Row row = calibrate(one, reference(kSmoke), "", 16, 10);
     EXPECT_GE(row.covered, 8);
     EXPECT_EQ(row.unresolved, 0);
     EXPECT_GE(row.median_ratio, 0.75);

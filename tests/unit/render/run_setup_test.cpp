@@ -232,5 +232,41 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     EXPECT_TRUE(alone.run.render.adaptive);
 }
 
+// A run of iterations that may end after its first (a time budget, one iteration) renders that
+// iteration with its maps' noise, whose estimate it then states; every other iteration of a run
+// keeps its maps' bias alone, and a plain render both. A photon gather whose maps are not read in
+// batches (photon beams) has no iteration estimate to state.
+TEST(RunSetup, AFirstIterationThatMayEndTheRunKeepsItsMapsNoise) {
+    json doc = sunlit_cloud();
+    doc["render"]["integrator"] = "photon";
+    doc["volume"]["gather_depth"] = 3;
+    const auto resolved = [&](double budget, int iterations) {
+        doc["progressive"]["time_budget"] = budget;
+        doc["progressive"]["iterations"] = iterations;
+        return resolve_run(scene(doc));
+    };
+    const RunSetup plain = resolve_run(scene(doc));
+    ASSERT_FALSE(plain.progressive);
+    EXPECT_EQ(plain.photon_parts(1), PhotonParts::NoiseAndBias);
+    EXPECT_FALSE(plain.first_iteration_estimate());
+    for (const auto& [budget, iterations] : {std::pair{10.0, 0}, std::pair{0.0, 1}}) {
+        const RunSetup s = resolved(budget, iterations);
+        ASSERT_TRUE(s.progressive);
+        EXPECT_TRUE(s.first_iteration_estimate()) << budget;
+        EXPECT_EQ(s.photon_parts(1), PhotonParts::NoiseAndBias) << budget;
+        EXPECT_EQ(s.photon_parts(2), PhotonParts::Bias) << budget;
+    }
+    const RunSetup counted = resolved(0.0, 4);
+    EXPECT_FALSE(counted.first_iteration_estimate());
+    EXPECT_EQ(counted.photon_parts(1), PhotonParts::Bias);
+    doc["render"]["integrator"] = "path";
+    EXPECT_TRUE(resolved(10.0, 0).first_iteration_estimate());
+    EXPECT_EQ(resolved(10.0, 0).photon_parts(1), PhotonParts::None);
+    doc["render"]["integrator"] = "photon";
+    doc["volume"]["gather_depth"] = 0;
+    doc["volume"]["estimator"] = "photon_beams";
+    EXPECT_FALSE(resolved(10.0, 0).first_iteration_estimate());
+}
+
 }  // namespace
 }  // namespace fogmap
