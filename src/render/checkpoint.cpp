@@ -1,6 +1,7 @@
 #include "render/checkpoint.h"
 
 #include "core/error.h"
+#include "core/format_line.h"
 #include "core/hash.h"
 #include "core/input_file.h"
 
@@ -14,10 +15,12 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap checkpoint 6\n";
-/// Older formats' first line: "fogmap checkpoint " and their number (1 to 5: 2 had no batches, 3
-/// no bias halves, 4 no samples per pixel, 5 no samples per batch and weighed iterations alike).
-constexpr char kOldMagic[] = "fogmap checkpoint ";
+constexpr char kPrefix[] = "fogmap checkpoint ";
+/// The format (its first line's number); older ones are refused by name. What each added: 3 the
+/// batches, 4 the bias halves, 5 each pixel's samples, 6 its samples per batch (iterations weighed
+/// by them).
+constexpr int kFormat = 6;
+const std::string kMagic = format_line(kPrefix, kFormat);
 /// fingerprint, iterations, width, height, layered, bias halves, count count
 constexpr size_t kFields = 7;
 constexpr uint64_t kMaxCheckpointBytes = uint64_t(1) << 40;  ///< the size check comes later
@@ -34,7 +37,7 @@ uint64_t expected_values(const CheckpointShape& shape) {
 
 /// The bytes of a checkpoint of `shape`'s run.
 uint64_t expected_bytes(const CheckpointShape& shape) {
-    return std::strlen(kMagic) + 8 * (kFields + kRunCounts + 1 + expected_values(shape) + 1);
+    return kMagic.size() + 8 * (kFields + kRunCounts + 1 + expected_values(shape) + 1);
 }
 
 [[noreturn]] void fail(const std::string& path, const char* field, const std::string& why) {
@@ -55,7 +58,7 @@ public:
 
 private:
     const std::string& bytes_;
-    size_t at_ = std::strlen(kMagic);
+    size_t at_ = kMagic.size();
 };
 
 /// Fails naming `field` unless the checkpoint's value equals the run's.
@@ -69,19 +72,12 @@ void expect(const std::string& path, const char* field, int64_t found, int64_t w
 /// The file's first bytes (its header line and fingerprint), checked for its kind and format.
 std::string header(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
-    std::string head(std::strlen(kMagic) + 8, '\0');
+    std::string head(kMagic.size() + 8, '\0');
     in.read(head.data(), std::streamsize(head.size()));
     head.resize(size_t(in.gcount()));
-    if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return head;
-    const size_t old = std::strlen(kOldMagic);
-    for (const char format : {'1', '2', '3', '4', '5'})
-        if (head.compare(0, old, kOldMagic) == 0 &&
-            head.compare(old, 2, std::string{format, '\n'}) == 0)
-            throw InputError(path, "format",
-                             std::string("written by an older fogmap (format ") + format +
-                                 "); remove it to start again");
-    throw InputError(path, "format",
-                     "not a fogmap checkpoint (its first line is not \"fogmap checkpoint 6\")");
+    check_format_line(path, head, kPrefix, kFormat, "a fogmap checkpoint",
+                      "remove it to start again");
+    return head;
 }
 
 /// The fields of a checkpoint of the right size and checksum, each checked against the run.
@@ -143,8 +139,7 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape
     check_input_file(path, "size", "checkpoint", kMaxCheckpointBytes);
     const std::string head = header(path);
     uint64_t fingerprint = 0;
-    if (head.size() == std::strlen(kMagic) + 8)
-        std::memcpy(&fingerprint, head.data() + std::strlen(kMagic), 8);
+    if (head.size() == kMagic.size() + 8) std::memcpy(&fingerprint, head.data() + kMagic.size(), 8);
     if (fingerprint != shape.fingerprint)
         fail(path, "fingerprint",
              "written for another scene, other settings or other input files (only "

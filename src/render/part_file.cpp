@@ -1,6 +1,7 @@
 #include "render/part_file.h"
 
 #include "core/error.h"
+#include "core/format_line.h"
 #include "core/hash.h"
 #include "core/input_file.h"
 #include "scene/scene_desc_json.h"
@@ -16,25 +17,18 @@ namespace fogmap {
 
 namespace {
 
-constexpr char kMagic[] = "fogmap part 3\n";
-/// Older formats' first line: "fogmap part " and their number (1: its progressive sums had no
-/// samples per pixel; 2: none per batch, and weighed iterations alike).
-constexpr char kOldMagic[] = "fogmap part ";
+constexpr char kPrefix[] = "fogmap part ";
+/// The format (its first line's number); older ones are refused by name. What each added: 2 each
+/// pixel's samples to progressive sums, 3 its samples per batch (iterations weighed by them).
+constexpr int kFormat = 3;
+const std::string kMagic = format_line(kPrefix, kFormat);
 constexpr uint64_t kMaxPartBytes = uint64_t(1) << 40;   ///< a bound before reading; sizes follow
 constexpr uint64_t kMaxJsonBytes = uint64_t(64) << 20;  ///< the description (settings, report)
 
 /// Fails unless `head` starts with the part file's first line.
 void check_magic(const std::string& path, const std::string& head) {
-    if (head.compare(0, std::strlen(kMagic), kMagic) == 0) return;
-    const size_t old = std::strlen(kOldMagic);
-    for (const char format : {'1', '2'})
-        if (head.compare(0, old, kOldMagic) == 0 &&
-            head.compare(old, 2, std::string{format, '\n'}) == 0)
-            throw InputError(path, "format",
-                             std::string("written by an older fogmap (format ") + format +
-                                 "); render the parts again with this one");
-    throw InputError(path, "format",
-                     "not a fogmap part file (its first line is not \"fogmap part 3\")");
+    check_format_line(path, head, kPrefix, kFormat, "a fogmap part file",
+                      "render the parts again with this one");
 }
 
 template <class T>
@@ -142,7 +136,7 @@ private:
     const std::string& path_;
     const std::string& bytes_;
     const size_t end_;
-    size_t at_ = std::strlen(kMagic);
+    size_t at_ = kMagic.size();
 };
 
 /// The film's values, `want` of them.
@@ -242,12 +236,12 @@ std::string part_bytes(const PartFile& part) {
 PartRun read_part_run(const std::string& path) {
     const uint64_t size = check_input_file(path, "size", "part file", kMaxPartBytes);
     std::ifstream in(path, std::ios::binary);
-    std::string head(std::strlen(kMagic) + 8, '\0');
+    std::string head(kMagic.size() + 8, '\0');
     in.read(head.data(), std::streamsize(head.size()));
     check_magic(path, head.substr(0, size_t(in.gcount())));
     uint64_t json_bytes = 0;
     if (size_t(in.gcount()) == head.size())
-        std::memcpy(&json_bytes, head.data() + std::strlen(kMagic), 8);
+        std::memcpy(&json_bytes, head.data() + kMagic.size(), 8);
     if (json_bytes == 0 || json_bytes > std::min<uint64_t>(size, kMaxJsonBytes))
         throw InputError(path, "run", "its description's length is not that of a part file");
     std::string text(size_t(json_bytes), '\0');
@@ -264,8 +258,8 @@ PartFile read_part(const std::string& path) {
     check_magic(path, bytes);
     const size_t end = bytes.size() - 8;
     uint64_t sum = 0;
-    if (bytes.size() >= std::strlen(kMagic) + 8) std::memcpy(&sum, bytes.data() + end, 8);
-    if (bytes.size() < std::strlen(kMagic) + 8 || sum != fnv1a(bytes.substr(0, end)))
+    if (bytes.size() >= kMagic.size() + 8) std::memcpy(&sum, bytes.data() + end, 8);
+    if (bytes.size() < kMagic.size() + 8 || sum != fnv1a(bytes.substr(0, end)))
         throw InputError(path, "checksum",
                          "its contents do not match their checksum: the file is corrupt or cut "
                          "short");

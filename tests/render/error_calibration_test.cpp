@@ -126,14 +126,21 @@ TEST(ErrorCalibration, SmokeOfThePathTracerAndTheDefaultAt8Spp) {
 // A run of iterations that allocate their samples adaptively (16 spp each: iteration 1 measures,
 // the 7 others take its counts): the sum weighs each iteration's pixel by its samples there, and
 // its estimate from the iterations' batches holds the truth as a plain render's does.
-TEST(ErrorCalibration, IterationsThatAllocateTheirSamplesAreCalibrated) {
-    Case iterations = kSmoke;
-    iterations.runs = {"progressive.iterations=8"};
-    const Row row = calibrate(iterations, reference(kSmoke), "path", 16, 10);
+/// smoke.json at 160 x 90 with `runs`, 10 seeds of `integrator` at `spp`: the truth below the
+/// upper bound in at least 8, the median estimate / truth within [0.75, 1.33].
+void expect_smoke_calibrated(std::vector<std::string> runs, const std::string& integrator,
+                             int spp) {
+    Case c = kSmoke;
+    c.runs = std::move(runs);
+    const Row row = calibrate(c, reference(kSmoke), integrator, spp, 10);
     EXPECT_GE(row.covered, 8);
     EXPECT_EQ(row.unresolved, 0);
     EXPECT_GE(row.median_ratio, 0.75);
     EXPECT_LE(row.median_ratio, 1.33);
+}
+
+TEST(ErrorCalibration, IterationsThatAllocateTheirSamplesAreCalibrated) {
+    expect_smoke_calibrated({"progressive.iterations=8"}, "path", 16);
 }
 
 // A run of iterations that ends after its first (a time budget's may) has one batch of
@@ -141,13 +148,7 @@ TEST(ErrorCalibration, IterationsThatAllocateTheirSamplesAreCalibrated) {
 // default's camera paths ending in the volume map, its map's noise and bias (RunSetup::
 // first_iteration_estimate), and that holds the truth as a plain render's does.
 TEST(ErrorCalibration, ARunThatEndsAfterItsFirstIterationStatesThatIterationsEstimate) {
-    Case one = kSmoke;
-    one.runs = {"progressive.iterations=1"};
-    const Row row = calibrate(one, reference(kSmoke), "", 16, 10);
-    EXPECT_GE(row.covered, 8);
-    EXPECT_EQ(row.unresolved, 0);
-    EXPECT_GE(row.median_ratio, 0.75);
-    EXPECT_LE(row.median_ratio, 1.33);
+    expect_smoke_calibrated({"progressive.iterations=1"}, "", 16);
 }
 
 /// smoke.json at 160 x 90 with `settings`: its default's bias² is not flagged (the interval holds
