@@ -207,11 +207,6 @@ int64_t to_fixed(double x) {
     return std::isfinite(v) ? std::llround(std::clamp(v, -kMost, kMost)) : 0;
 }
 
-int64_t add_saturated(int64_t a, int64_t b) {
-    int64_t r;
-    return __builtin_add_overflow(a, b, &r) ? (b > 0 ? INT64_MAX : INT64_MIN) : r;
-}
-
 }  // namespace
 
 void IterationMeasure::add(const Film& film, const PassMeasure& measure) {
@@ -222,10 +217,10 @@ void IterationMeasure::add(const Film& film, const PassMeasure& measure) {
     for (size_t p = 0; p < pixels; ++p) {
         int64_t* v = &values[7 * p];
         for (int c = 0; c < 3; ++c) {
-            v[c] = add_saturated(v[c], to_fixed(film.beauty.pixels[p][c]));
-            v[3 + c] = add_saturated(v[3 + c], to_fixed(measure.squares[p][c]));
+            v[c] = saturating_add(v[c], to_fixed(film.beauty.pixels[p][c]));
+            v[3 + c] = saturating_add(v[3 + c], to_fixed(measure.squares[p][c]));
         }
-        v[6] = add_saturated(v[6], to_fixed(measure.work[p]));
+        v[6] = saturating_add(v[6], to_fixed(measure.work[p]));
     }
 }
 

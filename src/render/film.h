@@ -153,6 +153,15 @@ struct Film {
     }
 };
 
+/// a + b, or where that would overflow the int64 bound on b's side, with `*saturated` set: the
+/// fixed-point sums' one addition (FixedFilm, IterationMeasure).
+inline int64_t saturating_add(int64_t a, int64_t b, bool* saturated = nullptr) {
+    int64_t r;
+    if (!__builtin_add_overflow(a, b, &r)) return r;
+    if (saturated) *saturated = true;
+    return b > 0 ? INT64_MAX : INT64_MIN;
+}
+
 /// Sums of films in 64-bit fixed point (2^-32 units per value): integer addition is exact and
 /// associative, so a sum over iterations has the same bits whatever order — or rank — the
 /// iterations were added in (docs/design.md, Determinism). Values beyond ±2^24 (radiance 1.7e7),
@@ -306,11 +315,9 @@ private:
         } else {
             fixed = std::llround(x * w * kUnit);
         }
-        int64_t r;
-        if (__builtin_add_overflow(sum, fixed, &r)) {
-            ++clamped;
-            r = fixed > 0 ? INT64_MAX : INT64_MIN;
-        }
+        bool over = false;
+        const int64_t r = saturating_add(sum, fixed, &over);
+        clamped += over;
         return r;
     }
 };
