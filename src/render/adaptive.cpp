@@ -209,22 +209,23 @@ int64_t to_fixed(double x) {
 
 }  // namespace
 
-void IterationMeasure::add(const Film& film, const PassMeasure& measure) {
-    const size_t pixels = film.beauty.pixels.size();
-    if (values.empty()) zero(film.beauty.width, film.beauty.height);
+void IterationMeasure::add(const PassMeasure& measure) {
+    const Image& means = measure.means;
+    const size_t pixels = means.pixels.size();
+    if (values.empty()) zero(means.width, means.height);
     FOGMAP_ASSERT(values.size() == 7 * pixels && measure.squares.size() == pixels,
                   "a measure adds films of its own shape");
     for (size_t p = 0; p < pixels; ++p) {
         int64_t* v = &values[7 * p];
         for (int c = 0; c < 3; ++c) {
-            v[c] = saturating_add(v[c], to_fixed(film.beauty.pixels[p][c]));
+            v[c] = saturating_add(v[c], to_fixed(means.pixels[p][c]));
             v[3 + c] = saturating_add(v[3 + c], to_fixed(measure.squares[p][c]));
         }
         v[6] = saturating_add(v[6], to_fixed(measure.work[p]));
     }
 }
 
-std::vector<int> IterationMeasure::allocate(int iterations, int spp, int unit,
+std::vector<int> IterationMeasure::allocate(int iterations, int measured, int spp, int unit,
                                             uint64_t seed) const {
     Image mean(width, height);
     PassMeasure m;
@@ -240,7 +241,7 @@ std::vector<int> IterationMeasure::allocate(int iterations, int spp, int unit,
         }
         m.work[p] = float(double(v[6]) * inv);
     }
-    return spread_work(mean, m, iterations * spp, spp, 0, unit, seed, TileShare{});
+    return spread_work(mean, m, iterations * measured, spp, 0, unit, seed, TileShare{});
 }
 
 void merge_pixel(Film* film, size_t p, const PixelMeans& later, int n1, int n, int unit) {

@@ -387,10 +387,12 @@ struct PixelRange {
 };
 
 /// What the first pass of adaptive sampling measures per pixel beside its film: the beauty's sum
-/// of squares over the pass's finite samples, and its work per sample (state_work).
+/// of squares over the pass's finite samples, its work per sample (state_work), and where
+/// render_film hands the measure out (GivenSamples::measure) the pass's means.
 struct PassMeasure {
     std::vector<Color> squares;
     std::vector<float> work;
+    Image means;
 };
 
 /// Adaptive sampling (render.adaptive; render/adaptive.cpp, docs/design.md): the samples a first
@@ -398,6 +400,11 @@ struct PassMeasure {
 /// units, so that every pixel's estimate has two batches); spp (a uniform render) below
 /// kAdaptiveMinSpp or when it leaves nothing to allocate.
 int first_pass_spp(int spp, int unit);
+/// The samples every pixel takes in render_film's first pass, which its PassMeasure measures:
+/// first_pass_spp with `adaptive`, else all spp.
+inline int measured_spp(int spp, int unit, bool adaptive) {
+    return adaptive ? first_pass_spp(spp, unit) : spp;
+}
 /// Below this many samples a pixel, a first pass says too little to pay for itself (the path
 /// tracer at 4 spp: the same relMSE at 1.1-1.4x the time; docs/measurements.md).
 inline constexpr int kAdaptiveMinSpp = 8;
@@ -415,9 +422,10 @@ std::vector<int> allocate_samples(const Film& first, const PassMeasure& measure,
 inline constexpr int kAdaptiveMax = 16;
 
 /// Adaptive sampling across a progressive run's iterations (RunSetup::measured, docs/design.md):
-/// what its measured iterations, each of the same samples in every pixel, add up to per pixel —
-/// the beauty's means, the squares of its samples, its work per sample — in 64-bit fixed point,
-/// so that the sums are exact and the same whatever order, thread or rank added them.
+/// what the first passes of its measured iterations, each of the same samples in every pixel, add
+/// up to per pixel — the beauty's means, the squares of its samples, its work per sample — in
+/// 64-bit fixed point, so that the sums are exact and the same whatever order, thread or rank
+/// added them.
 struct IterationMeasure {
     static constexpr double kUnit = 16777216.0;  // 2^24
     int width = 0, height = 0;
@@ -429,20 +437,24 @@ struct IterationMeasure {
         height = h;
         values.assign(7 * size_t(w) * h, 0);
     }
-    /// Adds a measured iteration's film and its PassMeasure.
-    void add(const Film& film, const PassMeasure& measure);
+    /// Adds a measured iteration's PassMeasure (with its means).
+    void add(const PassMeasure& measure);
     /// Every pixel's samples in each later iteration of `spp` samples a pixel (in whole `unit`s, at
     /// least one): the work of a uniform iteration spread as allocate_samples spreads its rest,
-    /// from `iterations` measured iterations of `spp`; rounded by a dither of (seed, pixel).
-    std::vector<int> allocate(int iterations, int spp, int unit, uint64_t seed) const;
+    /// from `iterations` measures of `measured` samples a pixel (measured_spp); rounded by a
+    /// dither of (seed, pixel).
+    std::vector<int> allocate(int iterations, int measured, int spp, int unit, uint64_t seed) const;
 };
 
-/// What adaptive sampling across iterations asks of one iteration's render_film, in place of its
-/// own `adaptive`: every pixel's samples given (the iterations after the measured ones), or, with
-/// `measure`, spp samples in every pixel and their PassMeasure (the measured ones).
+/// What adaptive sampling across iterations asks of one iteration's render_film: every pixel's
+/// samples given (the iterations after the measured ones, in place of its own `adaptive`), or,
+/// with `measure`, the first pass's PassMeasure (the measured ones, which sample as a plain render
+/// does: their own passes where adaptive), and with `first_pass_only` that pass alone (a measured
+/// iteration rendered again for its measure).
 struct GivenSamples {
     const std::vector<int>* counts = nullptr;
     PassMeasure* measure = nullptr;
+    bool first_pass_only = false;
 };
 /// One pixel's means over one pass's samples (render_pass), and what its photon batches give.
 struct PixelMeans {
@@ -604,7 +616,8 @@ void render_pass(const Camera& camera, uint64_t seed, TileShare share, PhotonPar
 /// batch (s / unit) mod kBatches, so that batches hold whole units and are alike.
 /// `adaptive`: spp sets the work (of spp samples in every pixel): a first pass of first_pass_spp
 /// samples in every pixel, then a second of allocate_samples' counts (film.pixel_spp).
-/// `given` (adaptive sampling across iterations) replaces `adaptive` when it holds either.
+/// `given` (adaptive sampling across iterations): its counts replace `adaptive`; its measure gets
+/// the first pass's.
 template <class MakeState, class Trace>
 Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, bool layered,
                  PhotonParts photon_parts, int unit, bool adaptive, bool quiet, RenderStats* stats,
@@ -615,8 +628,7 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
     if (keeps_noise(photon_parts)) film.map_variance = Image(film.beauty.width, film.beauty.height);
     if (keeps_bias(photon_parts))
         film.bias_halves.assign(4, Image(film.beauty.width, film.beauty.height));
-    const bool own_passes = adaptive && !given.counts && !given.measure;
-    const int n1 = own_passes ? first_pass_spp(spp, unit) : spp;
+    const int n1 = given.counts ? spp : measured_spp(spp, unit, adaptive);
     const auto pass = [&](bool merge, auto&& range, PassMeasure* measure) {
         const char* what = n1 >= spp ? "render"
                            : merge   ? "render, more where the error is"
@@ -633,16 +645,18 @@ Film render_film(const Camera& camera, int spp, uint64_t seed, TileShare share, 
         const std::vector<int>& n = film.pixel_spp;
         const auto each_its_own = [&](size_t p) { return PixelRange{0, n[p], n[p]}; };
         pass(false, each_its_own, nullptr);
-    } else if (n1 >= spp) {
-        pass(false, first, given.measure);
     } else {
-        PassMeasure measure;
-        pass(false, first, &measure);
-        film.pixel_spp = allocate_samples(film, measure, spp, n1, unit, seed, share);
-        film.unit = unit;
-        const std::vector<int>& n = film.pixel_spp;
-        const auto more = [&](size_t p) { return PixelRange{n1, n[p], n[p]}; };
-        pass(true, more, nullptr);
+        PassMeasure own;
+        PassMeasure* measure = given.measure ? given.measure : n1 < spp ? &own : nullptr;
+        pass(false, first, measure);
+        if (given.measure) given.measure->means = film.beauty;
+        if (n1 < spp && !given.first_pass_only) {
+            film.pixel_spp = allocate_samples(film, *measure, spp, n1, unit, seed, share);
+            film.unit = unit;
+            const std::vector<int>& n = film.pixel_spp;
+            const auto more = [&](size_t p) { return PixelRange{n1, n[p], n[p]}; };
+            pass(true, more, nullptr);
+        }
     }
     if (stats) {
         counters.write(stats);

@@ -354,7 +354,7 @@ private:
     GivenSamples given_samples(int i, PassMeasure* measure) const;
     void finish_measure();
     void measure_again(int i);
-    void add_measure(int i, const Film& film, const PassMeasure& measure);
+    void add_measure(int i, const PassMeasure& measure);
     void accumulate(Film film, const RenderStats& stats, IterationReport it);
     bool last_round(int ran, int round, double loop_start_s);
     bool target_reached();
@@ -605,8 +605,8 @@ Film RunLoop::run_iteration(int i, IterationReport* it, RenderStats* stats, Give
     }
 }
 
-/// What iteration i's film takes under adaptive sampling across iterations: a measured one
-/// render.spp in every pixel, its PassMeasure into `measure`; a later one the measure's counts.
+/// What iteration i's film takes under adaptive sampling across iterations: a measured one its
+/// own passes, its first pass's PassMeasure into `measure`; a later one the measure's counts.
 GivenSamples RunLoop::given_samples(int i, PassMeasure* measure) const {
     if (setup_.measured == 0) return {};
     if (i <= setup_.measured) return {nullptr, measure};
@@ -632,13 +632,14 @@ void RunLoop::finish_measure() {
         ranks_->sum_to_all(&measure_.values);
         add_phase(&report_, "reduce", reduce.seconds());
     }
-    later_counts_ = measure_.allocate(measured, desc_.render.spp, sample_unit(desc_, setup_.method),
-                                      desc_.render.seed);
+    const int spp = desc_.render.spp, unit = sample_unit(desc_, setup_.method);
+    later_counts_ = measure_.allocate(measured, measured_spp(spp, unit, desc_.render.adaptive), spp,
+                                      unit, desc_.render.seed);
 }
 
-/// Iteration i rendered again for its measure alone (it is in some process's sum): the counts
-/// and the report are as they were but for the phases' times (what it counts, photons, samples,
-/// streams and warnings, is counted where it was summed).
+/// Iteration i's first pass rendered again for its measure alone (the iteration is in some
+/// process's sum): the counts and the report are as they were but for the phases' times (what it
+/// counts, photons, samples, streams and warnings, is counted where it was summed).
 void RunLoop::measure_again(int i) {
     const Counts counts = counts_;
     const Report report = report_;
@@ -646,7 +647,8 @@ void RunLoop::measure_again(int i) {
     IterationReport it;
     RenderStats stats;
     PassMeasure measure;
-    add_measure(i, run_iteration(i, &it, &stats, {nullptr, &measure}), measure);
+    run_iteration(i, &it, &stats, {nullptr, &measure, /*first_pass_only=*/true});
+    add_measure(i, measure);
     counts_ = counts;
     auto phases = std::move(report_.phases_s);
     report_ = report;
@@ -654,9 +656,9 @@ void RunLoop::measure_again(int i) {
     first_pass_reported_ = reported;
 }
 
-/// Adds measured iteration i's film and PassMeasure to this process's measure.
-void RunLoop::add_measure(int i, const Film& film, const PassMeasure& measure) {
-    measure_.add(film, measure);
+/// Adds measured iteration i's PassMeasure to this process's measure.
+void RunLoop::add_measure(int i, const PassMeasure& measure) {
+    measure_.add(measure);
     measured_here_[size_t(i)] = 1;
 }
 
@@ -875,7 +877,7 @@ PipelineResult RunLoop::run() {
             RenderStats stats;
             PassMeasure measure;
             Film film = run_iteration(i, &it, &stats, given_samples(i, &measure));
-            if (i <= setup_.measured) add_measure(i, film, measure);
+            if (i <= setup_.measured) add_measure(i, measure);
             accumulate(std::move(film), stats, it);
         }
         ran = cap > 0 ? std::min(ran + n_ranks_, cap) : ran + n_ranks_;

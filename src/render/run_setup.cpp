@@ -461,25 +461,35 @@ void RunSetup::share_tiles(TileShare share) {
 
 void RunSetup::set_reason(std::string why) {
     reason = std::move(why);
-    plan.integrator.reason = reason + (schedule.empty() ? "" : "; " + schedule);
+    std::string& said = plan.integrator.reason;
+    said = reason + (schedule.empty() ? "" : "; " + schedule);
     const int spp = run.render.spp, iterations = run.progressive.iterations;
+    const int first = first_pass_spp(spp, sample_unit(run, method));
+    // render_film's own passes (measured_spp): a plain render's, and a measured iteration's.
+    const bool passes = run.render.adaptive && first < spp;
+    const std::string two_passes =
+        "a first pass of " + std::to_string(first) + " spp, then the rest of " +
+        (measured > 0 ? "its " + std::to_string(spp) + " spp's" : std::string("render.spp's")) +
+        " work where it shows the error";
     if (measured > 0 && iterations > 0 && iterations <= measured)
-        plan.integrator.reason += "; adaptive sampling: none (" + std::to_string(iterations) +
-                                  " iterations, no more than the " + std::to_string(measured) +
-                                  " that would measure for the later ones)";
-    else if (measured > 0)
-        plan.integrator.reason +=
+        said += passes ? "; adaptive sampling: " +
+                             std::string(iterations > 1 ? "in each iteration " : "") + two_passes
+                       : "; adaptive sampling: none (" + std::to_string(iterations) +
+                             " iterations, no more than the " + std::to_string(measured) +
+                             " that would measure for the later ones)";
+    else if (measured > 0)  // a first pass leaves nothing below 8 spp, where more measure
+        said +=
             "; adaptive sampling across iterations: " +
-            (measured == 1 ? std::string("iteration 1 takes its")
-                           : "iterations 1-" + std::to_string(measured) + " take their") +
-            " " + std::to_string(spp) +
-            " spp in every pixel, every later one a uniform iteration's work where they show the "
-            "error, and each pixel is the mean of all its samples";
+            (passes          ? "iteration 1 takes " + two_passes + ", every later one"
+             : measured == 1 ? "iteration 1 takes its " + std::to_string(spp) +
+                                   " spp in every pixel, every later one"
+                             : "iterations 1-" + std::to_string(measured) + " take their " +
+                                   std::to_string(spp) + " spp in every pixel, every later one") +
+            " a uniform iteration's work where " +
+            (passes ? "that first pass shows" : "they show") +
+            " the error, and each pixel is the mean of all its samples";
     else if (run.render.adaptive)
-        plan.integrator.reason +=
-            "; adaptive sampling: a first pass of " +
-            std::to_string(first_pass_spp(spp, sample_unit(run, method))) +
-            " spp, then the rest of render.spp's work where it shows the error";
+        said += "; adaptive sampling: " + two_passes;
 }
 
 namespace {

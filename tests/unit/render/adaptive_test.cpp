@@ -224,25 +224,37 @@ TEST(Adaptive, TheEstimateOfAnAdaptiveFilmIsItsVarianceOverItsOwnSamples) {
     EXPECT_GE(covered, 18);
 }
 
-// Adaptive sampling across iterations: two measured iterations of 8 spp (uniform: no first pass
-// of their own), then every later iteration of 8 spp takes the work of a uniform one spread as
-// σ / sqrt(c): by hand, Σ c = 2.5 and Σ σ sqrt(c) = 0.375 a pixel on average, so a pixel takes
-// 8 · 2.5 / 0.375 σ / sqrt(c) = 53.3 σ / sqrt(c): 5.33, 21.3 (top), 2.67, 10.7 (bottom).
+// Adaptive sampling across iterations: two measured iterations of 8 spp, each sampled as a plain
+// render is (a first pass of 2, the rest where it shows the error), then every later iteration of
+// 8 spp takes the work of a uniform one spread as σ / sqrt(c) from the two first passes: by hand,
+// Σ c = 2.5 and Σ σ sqrt(c) = 0.375 a pixel on average, so a pixel takes 8 · 2.5 / 0.375 σ /
+// sqrt(c) = 53.3 σ / sqrt(c): 5.33, 21.3 (top), 2.67, 10.7 (bottom).
 TEST(Adaptive, IterationsAfterTheMeasuredOnesTakeAUniformIterationsWorkWhereTheErrorIs) {
     constexpr int kIterationSpp = 8;
+    const int first = measured_spp(kIterationSpp, 1, /*adaptive=*/true);
+    ASSERT_EQ(first, 2);
     std::array<Film, 2> measured;
     std::array<PassMeasure, 2> m;
     for (size_t i = 0; i < 2; ++i) {
         measured[i] = render(40 + i, {}, -1, -1, nullptr, kIterationSpp, {nullptr, &m[i]});
-        ASSERT_TRUE(measured[i].pixel_spp.empty());  // every pixel its 8
+        EXPECT_FALSE(measured[i].pixel_spp.empty());  // its own second pass
     }
+    // Its first pass again, for the measure alone (RunLoop::measure_again): the same measure, from
+    // that pass's samples only.
+    PassMeasure again;
+    RenderStats first_only;
+    render(40, {}, -1, -1, &first_only, kIterationSpp, {nullptr, &again, true});
+    EXPECT_EQ(first_only.samples, uint64_t(first) * kW * kH);
+    EXPECT_EQ(again.means.pixels, m[0].means.pixels);
+    EXPECT_EQ(again.squares, m[0].squares);
+    EXPECT_EQ(again.work, m[0].work);
     IterationMeasure forward, backward;  // the same sums whatever order adds them
-    forward.add(measured[0], m[0]);
-    forward.add(measured[1], m[1]);
-    backward.add(measured[1], m[1]);
-    backward.add(measured[0], m[0]);
+    forward.add(m[0]);
+    forward.add(m[1]);
+    backward.add(m[1]);
+    backward.add(m[0]);
     ASSERT_EQ(forward.values, backward.values);
-    const std::vector<int> counts = forward.allocate(2, kIterationSpp, 1, 9);
+    const std::vector<int> counts = forward.allocate(2, first, kIterationSpp, 1, 9);
     const Quadrants q(counts);
     EXPECT_GE(q.least, 1);
     q.expect_near({{5.33, 21.3}, {2.67, 10.7}}, 0.05);

@@ -178,17 +178,35 @@ TEST(RunSetup, AdaptiveSamplingRunsWhereAFirstPassLeavesSamplesToAllocate) {
     }
     // Iterations: the first ceil(kAdaptiveMinSpp / spp) measure for every later one, whatever
     // the run's count (a resumed run may have more).
+    // Iteration 1 samples as a plain render does, its first pass the measure.
     doc["progressive"]["iterations"] = 4;  // 16 spp an iteration or more: iteration 1 measures
     for (const char* integrator : {"path", "photon"}) {
         const RunSetup s = resolved(integrator, 3);
         EXPECT_TRUE(s.run.render.adaptive) << integrator;
         EXPECT_EQ(s.measured, 1) << integrator;
+        const int spp = s.run.render.spp;           // photon's: 64 (at least 2^20 camera samples)
+        const int first = spp == 16 ? 8 : spp / 4;  // two strata groups, or a quarter
         EXPECT_NE(s.plan.integrator.reason.find(
-                      "adaptive sampling across iterations: iteration 1 takes its " +
-                      std::to_string(s.run.render.spp) + " spp in every pixel"),
+                      "adaptive sampling across iterations: iteration 1 takes a first pass of " +
+                      std::to_string(first) + " spp, then the rest of its " + std::to_string(spp) +
+                      " spp's work where it shows the error, every later one a uniform "
+                      "iteration's work where that first pass shows the error"),
                   std::string::npos)
             << s.plan.integrator.reason;
     }
+    doc["progressive"]["iterations"] = 1;
+    EXPECT_EQ(resolved("path", 0).measured, 1);
+    EXPECT_NE(resolved("path", 0).plan.integrator.reason.find(
+                  "adaptive sampling: a first pass of 8 spp, then the rest of its 16 spp's work"),
+              std::string::npos)
+        << resolved("path", 0).plan.integrator.reason;
+    doc["render"]["spp"] = 8;  // a first pass would take them all: iteration 1 measures all 8
+    doc["progressive"]["iterations"] = 4;
+    EXPECT_NE(resolved("path", 0).plan.integrator.reason.find(
+                  "adaptive sampling across iterations: iteration 1 takes its 8 spp in every "
+                  "pixel, every later one a uniform iteration's work where they show the error"),
+              std::string::npos)
+        << resolved("path", 0).plan.integrator.reason;
     doc["render"]["spp"] = 4;  // iterations 1 and 2 measure
     EXPECT_EQ(resolved("path", 0).measured, 2);
     EXPECT_TRUE(resolved("path", 0).run.render.adaptive);
