@@ -19,6 +19,7 @@
 #include "render/part_file.h"
 #include "render/pipeline.h"
 #include "render/report.h"
+#include "render/volume_map_end.h"
 #include "scene/scene.h"
 #include "scene/scene_desc_json.h"
 #include "scene/vdb_scene.h"
@@ -107,15 +108,21 @@ RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const double adaptive = !desc.render.adaptive ? 0.0 : setup.measured > 0 ? 160.0 : 56.0;
     const double others = pixels * (with_reference ? 2 * sizeof(Color) : 0) +
                           pixels * (2 + 9) * sizeof(Color) + pixels * 6 + pixels * adaptive;
-    // 20 bytes per photon with its kd-tree (docs/measurements.md); the beam estimate keeps 48 more
-    // per volume photon, photon beams about 200 (1.5 beams per photon measured on smoke.json,
-    // each 28 bytes stored and one or more 44-byte pieces in their hierarchy).
+    // 20 bytes per photon with its kd-tree (docs/measurements.md); the photon gather's beam
+    // estimate keeps 48 more per volume photon, photon beams about 200 (1.5 beams per photon
+    // measured on smoke.json, each 28 bytes stored and one or more 44-byte pieces in their
+    // hierarchy).
     const PhotonSettings& p = setup.photons;
-    const double per_volume_photon = desc.volume.estimator == VolumeEstimator::Beam          ? 48.0
-                                     : desc.volume.estimator == VolumeEstimator::PhotonBeams ? 200.0
-                                                                                             : 0.0;
+    const VolumeEstimator estimator = desc.volume.estimator;
+    const double per_volume_photon =
+        estimator == VolumeEstimator::PhotonBeams                              ? 200.0
+        : estimator == VolumeEstimator::Beam && setup.method == Method::Gather ? 48.0
+                                                                               : 0.0;
+    // Camera paths ending in the volume map look it up from grids (VolumeMapEnd::memory_bound).
+    const double end_grids =
+        setup.method == Method::MapEnd ? VolumeMapEnd::memory_bound(double(p.volume)) : 0.0;
     const double maps = photon ? 20.0 * (double(p.global) + p.caustic + p.volume) +
-                                     per_volume_photon * double(p.volume)
+                                     per_volume_photon * double(p.volume) + end_grids
                                : 0.0;
     return RunMemory{films + others, maps, layers};
 }

@@ -184,6 +184,11 @@ public:
     /// Legendre moments g_p^l, such as once-scattered light (g_p = g): 3.6% of the l = 0 term at
     /// g 0.4 (docs/why.md).
     static constexpr size_t kMaxMomentNodes = size_t(1) << 21;
+    /// Bytes the grids of a map of `budget` volume photons may take (the density grid, the
+    /// moments with their batch sums and slots, and the σ_s table), for the memory pre-check.
+    /// Their points follow the radius, which the map sets, so this is an envelope of measured
+    /// runs (docs/measurements.md, Memory), never above the grids' caps.
+    static double memory_bound(double budget);
 
     // FineEnough. A path ends at its D-th vertex only where σ̄_s r <= max_tau; elsewhere it
     // scatters on as in the path tracer and asks again at the next vertex, ending at vertex
