@@ -83,6 +83,15 @@ std::string cap_threads(SceneDesc* desc) {
     return text;
 }
 
+namespace {
+
+/// What run_memory's maps hold, for messages.
+std::string maps_label(const RunSetup& setup) {
+    return setup.method == Method::MapEnd ? "photon maps and their lookup grids " : "photon maps ";
+}
+
+}  // namespace
+
 RunMemory run_memory(const RunSetup& setup, bool with_reference) {
     const SceneDesc& desc = setup.run;
     const double pixels = double(desc.camera.width) * desc.camera.height;
@@ -141,7 +150,8 @@ void check_run_memory(const RunSetup& setup, bool with_reference) {
                                ") x 12 bytes x 2 films (3 for a sum of iterations), and more";
     throw InputError(desc.path, m.maps > m.images ? "/photons" : "/camera/width",
                      "the run needs about " + mb(total) + ": images " + mb(m.images) + " (" +
-                         images + "), photon maps " + mb(m.maps) + "; only " + mb(double(budget)) +
+                         images + "), " + maps_label(setup) + mb(m.maps) + "; only " +
+                         mb(double(budget)) +
                          " of memory are available; expected a smaller image or fewer photons");
 }
 
@@ -580,8 +590,8 @@ int dry_run(const RenderArgs& args, const RenderJob& job) {
               << "integrator: " << integrator_name(setup.method) << " ("
               << setup.plan.integrator.reason << ")\n"
               << "predicted peak memory: about " << mb(m.images + m.maps + grids + kProgramBytes)
-              << " (images " << mb(m.images) << ", photon maps " << mb(m.maps) << ", grids "
-              << mb(grids) << (unknown ? " and grids without size metadata" : "")
+              << " (images " << mb(m.images) << ", " << maps_label(setup) << mb(m.maps)
+              << ", grids " << mb(grids) << (unknown ? " and grids without size metadata" : "")
               << ", the program " << mb(kProgramBytes) << ")\n"
               << "work: " << uint64_t(d.camera.width) * d.camera.height * d.render.spp
               << " camera samples (" << d.camera.width << " x " << d.camera.height << " x "
