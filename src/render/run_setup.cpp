@@ -464,11 +464,11 @@ void RunSetup::set_reason(std::string why) {
     std::string& said = plan.integrator.reason;
     said = reason + (schedule.empty() ? "" : "; " + schedule);
     const int spp = run.render.spp, iterations = run.progressive.iterations;
-    const int first = first_pass_spp(spp, sample_unit(run, method));
     // render_film's own passes (measured_spp): a plain render's, and a measured iteration's.
-    const bool passes = run.render.adaptive && first < spp;
+    const bool passes = adaptive_sampling(run, method);
     const std::string two_passes =
-        "a first pass of " + std::to_string(first) + " spp, then the rest of " +
+        "a first pass of " + std::to_string(first_pass_spp(spp, sample_unit(run, method))) +
+        " spp, then the rest of " +
         (measured > 0 ? "its " + std::to_string(spp) + " spp's" : std::string("render.spp's")) +
         " work where it shows the error";
     if (measured > 0 && iterations > 0 && iterations <= measured)

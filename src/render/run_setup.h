@@ -167,8 +167,9 @@ int volume_k(const SceneDesc& desc);
 /// maps: photon_integrator.h, map_step), the path tracer's strata groups otherwise (strata_unit).
 int sample_unit(const SceneDesc& desc, Method method);
 
-/// Whether render.adaptive applies to a plain render of `desc` by `method`: render.spp enough to
-/// leave a first pass of whole units (sample_unit) something to allocate (first_pass_spp).
+/// Whether render.adaptive applies to a plain render of `desc` by `method`, or to a measured
+/// iteration of a run of them (render.spp an iteration's): render.spp enough to leave a first pass
+/// of whole units (sample_unit) something to allocate (first_pass_spp).
 bool adaptive_sampling(const SceneDesc& desc, Method method);
 
 /// Adaptive sampling across a run of iterations (render.adaptive; render.spp an iteration's):
