@@ -1,6 +1,6 @@
 #pragma once
 // The first line of fogmap's own binary files (checkpoints, part files): a prefix naming the
-// kind and the format's number, "fogmap part 3\n". The number rises whenever the layout changes,
+// kind and the format's number, "fogmap part 4\n". The number rises whenever the layout changes,
 // so that a file an older fogmap wrote is refused by name, never misread.
 
 #include "core/error.h"

@@ -18,8 +18,8 @@ namespace {
 constexpr char kPrefix[] = "fogmap checkpoint ";
 /// The format (its first line's number); older ones are refused by name. What each added: 3 the
 /// batches, 4 the bias halves, 5 each pixel's samples, 6 its samples per batch (iterations weighed
-/// by them).
-constexpr int kFormat = 6;
+/// by them), 7 iteration 1's own error estimate.
+constexpr int kFormat = 7;
 const std::string kMagic = format_line(kPrefix, kFormat);
 /// fingerprint, iterations, width, height, layered, bias halves, count count
 constexpr size_t kFields = 7;
@@ -35,9 +35,11 @@ uint64_t expected_values(const CheckpointShape& shape) {
     return FixedFilm::value_count(shape.width, shape.height, shape.layered, shape.bias);
 }
 
-/// The bytes of a checkpoint of `shape`'s run.
-uint64_t expected_bytes(const CheckpointShape& shape) {
-    return kMagic.size() + 8 * (kFields + kRunCounts + 1 + expected_values(shape) + 1);
+/// The bytes of a checkpoint of `shape`'s run, with iteration 1's estimate or without.
+uint64_t expected_bytes(const CheckpointShape& shape, bool first) {
+    const uint64_t estimate = first ? estimate_value_count(shape.width, shape.height) : 0;
+    return kMagic.size() +
+           8 * (kFields + kRunCounts + 1 + expected_values(shape) + 1 + estimate + 1);
 }
 
 [[noreturn]] void fail(const std::string& path, const char* field, const std::string& why) {
@@ -55,6 +57,7 @@ public:
         return v;
     }
     size_t at() const { return at_; }
+    void skip(size_t fields) { at_ += fields * sizeof(int64_t); }
 
 private:
     const std::string& bytes_;
@@ -110,6 +113,16 @@ Checkpoint parse(const std::string& path, const std::string& bytes, const Checkp
     c.sum.bias = shape.bias;
     c.sum.values.resize(size_t(values));
     std::memcpy(c.sum.values.data(), bytes.data() + f.at(), size_t(values) * sizeof(int64_t));
+    f.skip(size_t(values));
+    const bool with_first = bytes.size() == expected_bytes(shape, true);
+    const size_t estimate = with_first ? estimate_value_count(shape.width, shape.height) : 0;
+    expect(path, "estimate", f.next(), int64_t(estimate),
+           "number of estimate values (by the file's size)");
+    if (!with_first) return c;
+    std::vector<int64_t> e(estimate);
+    for (int64_t& v : e) v = f.next();
+    c.first = estimate_of_values(e, shape.width, shape.height);
+    if (!c.first) fail(path, "estimate", "its values are not an error estimate's");
     return c;
 }
 
@@ -128,6 +141,9 @@ std::string checkpoint_bytes(const Checkpoint& c) {
     put(&out, int64_t(c.sum.values.size()));
     out.append(reinterpret_cast<const char*>(c.sum.values.data()),
                c.sum.values.size() * sizeof(int64_t));
+    const std::vector<int64_t> first = c.first ? estimate_values(*c.first) : std::vector<int64_t>{};
+    put(&out, int64_t(first.size()));
+    for (int64_t v : first) put(&out, v);
     put(&out, fnv1a(out));
     return out;
 }
@@ -147,11 +163,13 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape
              "render.threads may change "
              "between a run and its resumption, and the input files not at all)");
     // Read no more than this run's checkpoint takes: a file of another size is named, not loaded.
-    const uint64_t want = expected_bytes(shape);
     const uint64_t size = std::filesystem::file_size(path, ec);
+    const uint64_t want = expected_bytes(shape, size != expected_bytes(shape, false));
     if (size != want)
         fail(path, "size",
-             std::to_string(size) + " bytes; a checkpoint of this run has " + std::to_string(want));
+             std::to_string(size) + " bytes; a checkpoint of this run has " +
+                 std::to_string(expected_bytes(shape, false)) + ", or " + std::to_string(want) +
+                 " with its first iteration's error estimate");
     const std::string bytes = read_input_file(path, "size", "checkpoint", want);
     uint64_t sum;
     std::memcpy(&sum, bytes.data() + want - 8, 8);

@@ -6,9 +6,11 @@
 // image, bit for bit, as a run that was never stopped — at any rank count, since the sums are
 // integers. Nothing in a checkpoint is trusted before it is checked against the run and itself.
 
+#include "render/error_estimate.h"
 #include "render/film.h"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,9 @@ struct Checkpoint {
     int iterations = 0;           ///< iterations 1 .. iterations are in `sum`
     std::vector<int64_t> counts;  ///< the pipeline's summed counts, kRunCounts of them
     FixedFilm sum;
+    /// Iteration 1's own estimate, where the run may end after it (RunSetup::
+    /// first_iteration_estimate) and it was valid: a resumed run that ends there states it.
+    std::optional<ErrorEstimate> first;
 };
 
 /// What a checkpoint must hold to resume a run.
@@ -34,15 +39,17 @@ struct CheckpointShape {
     int max_iterations = 0;     ///< the most iterations a run takes
 };
 
-/// The file's bytes: a header line "fogmap checkpoint 6", the fields little-endian, then the
-/// FNV-1a checksum of everything before it.
+/// The file's bytes: a header line "fogmap checkpoint 7", the fields little-endian (the film's
+/// values, then the count of `first`'s, 0 without it, and those: error_estimate.h,
+/// estimate_values), then the FNV-1a checksum of everything before it.
 std::string checkpoint_bytes(const Checkpoint& c);
 
 /// Reads the checkpoint at `path` for a run of `shape`. Throws InputError{path, FIELD, reason}
 /// (FIELD names the checkpoint's field: format, size, fingerprint, checksum, iterations, width,
-/// height, layers, bias, counts, values) when the file is unreadable, a folder, not a checkpoint,
-/// of another size than such a run's, written for another scene, settings or input files, corrupt,
-/// or its fields disagree with the run or each other. Reads at most the size such a run's has.
+/// height, layers, bias, counts, values, estimate) when the file is unreadable, a folder, not a
+/// checkpoint, of another size than such a run's, written for another scene, settings or input
+/// files, corrupt, or its fields disagree with the run or each other. Reads at most the size such a
+/// run's has.
 Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape);
 
 }  // namespace fogmap

@@ -1,9 +1,11 @@
 #include "render/error_estimate.h"
 
+#include "core/error.h"
 #include "render/metrics.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <vector>
@@ -457,6 +459,82 @@ ErrorEstimate estimate_error(const Film& film, int spp) {
     e.valid = true;
     const Weights weight(film, active, spp);
     estimate_variance(film, shares, active, weight, &e);
+    return e;
+}
+
+namespace {
+
+/// estimate_values' fields before the variance's pixels.
+constexpr size_t kEstimateFields = 14;
+
+int64_t bits_of(double x) {
+    int64_t v;
+    std::memcpy(&v, &x, sizeof v);
+    return v;
+}
+
+double double_of(int64_t v) {
+    double x;
+    std::memcpy(&x, &v, sizeof x);
+    return x;
+}
+
+}  // namespace
+
+size_t estimate_value_count(int width, int height) {
+    return kEstimateFields + size_t(3) * size_t(width) * size_t(height);
+}
+
+std::vector<int64_t> estimate_values(const ErrorEstimate& e) {
+    FOGMAP_ASSERT(e.valid && !e.variance.pixels.empty(), "a valid estimate has its variance");
+    std::vector<int64_t> v;
+    const auto put = [&v](double x) { v.push_back(bits_of(x)); };
+    for (double x : {double(e.valid), double(e.batches), e.rel_mse.value, e.rel_mse.lo,
+                     e.rel_mse.hi, double(e.bias_valid), e.bias2.value, e.bias2.lo, e.bias2.hi,
+                     e.tail_share, double(e.tail), double(e.top_x), double(e.top_y), e.dof})
+        put(x);
+    for (const Color& c : e.variance.pixels)
+        for (int k = 0; k < 3; ++k) put(double(c[k]));
+    return v;
+}
+
+std::optional<ErrorEstimate> estimate_of_values(const std::vector<int64_t>& values, int width,
+                                                int height) {
+    if (values.size() != estimate_value_count(width, height)) return std::nullopt;
+    size_t at = 0;
+    const auto next = [&values, &at] { return double_of(values[at++]); };
+    const auto flag = [](double x) { return x == 0.0 || x == 1.0; };
+    const auto whole = [](double x, double lo, double hi) {
+        return x >= lo && x <= hi && x == std::floor(x);
+    };
+    const auto interval = [&next](Interval* i) {
+        *i = {next(), next(), next()};
+        return std::isfinite(i->value) && i->lo >= 0.0 && i->lo <= i->hi && std::isfinite(i->hi);
+    };
+    ErrorEstimate e;
+    const double valid = next(), batches = next();
+    bool ok = valid == 1.0 && whole(batches, 0.0, double(kBatches)) && interval(&e.rel_mse);
+    const double bias_valid = next();
+    ok = ok && flag(bias_valid) && interval(&e.bias2);
+    e.tail_share = next();
+    const double tail = next(), x = next(), y = next();
+    e.dof = next();
+    ok = ok && e.tail_share >= 0.0 && e.tail_share <= 1.0 && flag(tail) &&
+         whole(x, -1.0, width - 1.0) && whole(y, -1.0, height - 1.0) && e.dof > 0.0;
+    if (!ok) return std::nullopt;
+    e.valid = true;
+    e.batches = int(batches);
+    e.bias_valid = bias_valid == 1.0;
+    e.tail = tail == 1.0;
+    e.top_x = int(x);
+    e.top_y = int(y);
+    e.variance = Image(width, height);
+    for (Color& c : e.variance.pixels)
+        for (int k = 0; k < 3; ++k) {
+            const double v = next();
+            if (!(v >= 0.0 && v <= std::numeric_limits<float>::max())) return std::nullopt;
+            c[k] = float(v);
+        }
     return e;
 }
 

@@ -20,7 +20,10 @@
 #include "core/image.h"
 #include "render/film.h"
 
+#include <cstdint>
 #include <limits>
+#include <optional>
+#include <vector>
 
 namespace fogmap {
 
@@ -56,6 +59,16 @@ double student_t95(double dof);
 /// The estimate from `film`'s beauty, batches and batch shares; `spp`: the samples every pixel of
 /// the film holds (Film::pixel_spp's own under adaptive sampling).
 ErrorEstimate estimate_error(const Film& film, int spp);
+
+/// A valid estimate as integers, for the files that carry iteration 1's to where a run that ends
+/// after it ends (a checkpoint, a part file): each field, then the variance's pixels, as the bits
+/// of doubles (exact: every value is a double or a float); estimate_value_count(w, h) of them.
+std::vector<int64_t> estimate_values(const ErrorEstimate& e);
+size_t estimate_value_count(int width, int height);
+/// The inverse for a `width` x `height` film, or nothing where `values` are not what
+/// estimate_values writes (not valid, or a count, flag, interval or variance out of its range).
+std::optional<ErrorEstimate> estimate_of_values(const std::vector<int64_t>& values, int width,
+                                                int height);
 
 /// Whether `e` meets a target relMSE: valid, and its 95% upper bound at most `target`.
 inline bool meets_target(const ErrorEstimate& e, double target) {

@@ -19,8 +19,9 @@ namespace {
 
 constexpr char kPrefix[] = "fogmap part ";
 /// The format (its first line's number); older ones are refused by name. What each added: 2 each
-/// pixel's samples to progressive sums, 3 its samples per batch (iterations weighed by them).
-constexpr int kFormat = 3;
+/// pixel's samples to progressive sums, 3 its samples per batch (iterations weighed by them), 4
+/// iteration 1's own error estimate.
+constexpr int kFormat = 4;
 const std::string kMagic = format_line(kPrefix, kFormat);
 constexpr uint64_t kMaxPartBytes = uint64_t(1) << 40;   ///< a bound before reading; sizes follow
 constexpr uint64_t kMaxJsonBytes = uint64_t(64) << 20;  ///< the description (settings, report)
@@ -162,6 +163,25 @@ std::vector<int64_t> get_values(const std::string& path, Reader* in, size_t want
     return values;
 }
 
+/// Iteration 1's estimate, where the part holds one (its count of values 0 where not).
+std::optional<ErrorEstimate> get_estimate(const std::string& path, Reader* in,
+                                          const CameraDesc& camera) {
+    const uint64_t n = in->next("estimate");
+    if (n == 0) return std::nullopt;
+    const size_t want = estimate_value_count(camera.width, camera.height);
+    if (n != want)
+        throw InputError(
+            path, "estimate",
+            std::to_string(n) + " estimate values; its run's estimate has " + std::to_string(want));
+    std::vector<int64_t> values(want);
+    for (int64_t& v : values) v = int64_t(in->next("estimate"));
+    std::optional<ErrorEstimate> e = estimate_of_values(values, camera.width, camera.height);
+    if (!e)
+        throw InputError(path, "estimate",
+                         "its values are not an error estimate's; the file is corrupt");
+    return e;
+}
+
 /// The run and film shape of a part's JSON block.
 void parse_json(const std::string& path, const std::string& text, PartFile* part) {
     try {
@@ -229,6 +249,10 @@ std::string part_bytes(const PartFile& part) {
     put(&out, uint64_t(sums.counts.size()));
     for (int64_t v : sums.counts) put(&out, v);
     put_values(&out, sums.values);
+    const std::vector<int64_t> first =
+        sums.first ? estimate_values(*sums.first) : std::vector<int64_t>{};
+    put(&out, uint64_t(first.size()));
+    for (int64_t v : first) put(&out, v);
     put(&out, fnv1a(out));
     return out;
 }
@@ -280,7 +304,9 @@ PartFile read_part(const std::string& path) {
             throw InputError(path, "counts", "a negative count; the file is corrupt");
     }
     part.sums.values = get_values(path, &in, part_value_count(part.run.setup, part.sums.shape));
-    if (!in.done()) throw InputError(path, "values", "bytes after the film; the file is corrupt");
+    part.sums.first = get_estimate(path, &in, part.run.setup.run.camera);
+    if (!in.done())
+        throw InputError(path, "estimate", "bytes after the estimate; the file is corrupt");
     return part;
 }
 

@@ -29,10 +29,11 @@ struct PartFile {
     PartSums sums;
 };
 
-/// The file's bytes: a header line "fogmap part 3", a JSON block (the run, the film's shape, the
+/// The file's bytes: a header line "fogmap part 4", a JSON block (the run, the film's shape, the
 /// part's unfinished report), the counts, the film's values (runs of zeros stored as their
-/// length: a plain render's part holds its own tiles alone), then the FNV-1a checksum of
-/// everything before it, all integers little-endian.
+/// length: a plain render's part holds its own tiles alone), the count of iteration 1's estimate
+/// values (0 where the part holds none) and those (render/error_estimate.h, estimate_values),
+/// then the FNV-1a checksum of everything before it, all integers little-endian.
 std::string part_bytes(const PartFile& part);
 
 /// The run the part file at `path` belongs to, from its first bytes alone (no checksum: read_part
@@ -40,8 +41,8 @@ std::string part_bytes(const PartFile& part);
 PartRun read_part_run(const std::string& path);
 
 /// Reads the part file at `path`. Throws InputError{path, FIELD, reason} (FIELD: size, format,
-/// checksum, run, counts, values) when it is unreadable, not a part file, corrupt, or its fields
-/// disagree with each other.
+/// checksum, run, counts, values, estimate) when it is unreadable, not a part file, corrupt, or its
+/// fields disagree with each other.
 PartFile read_part(const std::string& path);
 
 /// The fingerprint PartRun::settings of `setup`.

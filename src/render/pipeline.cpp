@@ -361,6 +361,12 @@ private:
     std::string bias_above_target(const ErrorEstimate& e, int n) const;
     int iteration_cap() const;
     void gather_to_root();
+    /// Rank 0's checkpoint of iterations 1 .. `iterations`, with iteration 1's estimate while
+    /// the sum holds that iteration alone.
+    Checkpoint checkpoint(int iterations) const {
+        return {0, iterations, counts_.pack(), sum_,
+                iterations == 1 ? first_estimate_ : std::nullopt};
+    }
     bool reduce();
     void finish_report();
     RenderSettings iteration_settings(int i) const;
@@ -444,6 +450,7 @@ void RunLoop::begin() {
         sum_ = o_.checkpoints->resume->sum;
         counts_ = Counts::unpack(o_.checkpoints->resume->counts);
         sum_.clamped = uint64_t(counts_.clamped);
+        first_estimate_ = o_.checkpoints->resume->first;
     }
     // Iteration 1's maps set every later iteration's radii (render/gather_params.h): a rank that
     // does not run it traces its photons for that alone.
@@ -666,7 +673,8 @@ void RunLoop::add_measure(int i, const PassMeasure& measure) {
 void RunLoop::accumulate(Film film, const RenderStats& stats, IterationReport it) {
     if (progressive_ && it.index == 1 && setup_.first_iteration_estimate()) {
         const Timer timer;
-        first_estimate_ = estimate_error(film, desc_.render.spp);
+        ErrorEstimate e = estimate_error(film, desc_.render.spp);
+        if (e.valid) first_estimate_ = std::move(e);
         add_phase(&report_, "estimate", timer.seconds());
     }
     if (progressive_)
@@ -716,7 +724,7 @@ bool RunLoop::last_round(int ran, int round, double loop_start_s) {
         const bool due = timer_.seconds() - checkpointed_s_ >= c->every_s;
         if (ranks_ ? ranks_->any(due) : due) {
             gather_to_root();
-            if (root_) c->write(Checkpoint{0, ran, counts_.pack(), sum_});
+            if (root_) c->write(checkpoint(ran));
             checkpointed_s_ = timer_.seconds();
         }
     }
@@ -821,6 +829,7 @@ bool RunLoop::reduce() {
             p.shape.batch_share = out_.film.batch_share;
         }
         p.report = std::move(report_);
+        p.first = std::move(first_estimate_);
         return false;
     }
     if (progressive_) {
@@ -829,7 +838,7 @@ bool RunLoop::reduce() {
         // The last checkpoint holds every iteration: a later --resume with a larger budget
         // continues from here.
         const Checkpoints* const c = o_.checkpoints;
-        if (c && c->every_s > 0.0) c->write({0, int(counts_.iterations), counts_.pack(), sum_});
+        if (c && c->every_s > 0.0) c->write(checkpoint(int(counts_.iterations)));
         out_.film = RunEnd{setup_, counts_, own_, speak_}.mean(sum_, &report_);
         return true;
     }
@@ -983,6 +992,7 @@ void PartMerge::add(PartSums part) {
     };
     add(&sum_.counts, part.counts);
     add(&sum_.values, part.values);
+    if (part.first) sum_.first = std::move(part.first);  // the part that ran iteration 1
     reports_.push_back(std::move(part.report));
 }
 
@@ -997,7 +1007,8 @@ PipelineResult PartMerge::finish(const RunSetup& setup, bool speak) {
         FixedFilm film = empty_sum(setup);
         film.values = std::move(sum_.values);
         film.clamped = uint64_t(sum.clamped);
-        const RunEnd end{setup, sum, int(own.iterations), speak};
+        const RunEnd end{setup, sum, int(own.iterations), speak,
+                         sum_.first ? &*sum_.first : nullptr};
         out.film = end.mean(film, &out.report);
         end.finish(&out.film, &out.report);
         return out;

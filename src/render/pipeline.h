@@ -8,6 +8,7 @@
 
 #include "core/image.h"
 #include "render/checkpoint.h"
+#include "render/error_estimate.h"
 #include "render/film.h"
 #include "render/report.h"
 #include "render/run_setup.h"
@@ -52,6 +53,9 @@ struct PartSums {
                    batch_share == o.batch_share;
         }
     } shape;
+    /// Iteration 1's own estimate, where this part ran it, the run may end after it and it was
+    /// valid: a merge of a run of one iteration states it.
+    std::optional<ErrorEstimate> first;
 };
 
 /// An empty sum of `setup`'s progressive iterations: layered, with bias halves where they read

@@ -19,9 +19,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The layout of "fogmap checkpoint 6": the header line, then 8-byte fields (fingerprint,
+// The layout of "fogmap checkpoint 7": the header line, then 8-byte fields (fingerprint,
 // iterations, width, height, layered, bias halves, count of counts, counts, ...).
-constexpr size_t kHeader = 20;  // "fogmap checkpoint 6\n"
+constexpr size_t kHeader = 20;  // "fogmap checkpoint 7\n"
 constexpr size_t kIterations = kHeader + 8, kWidth = kHeader + 16, kBias = kHeader + 40,
                  kCounts = kHeader + 48, kFirstCount = kHeader + 56;
 
@@ -110,10 +110,28 @@ TEST_F(Checkpoints, CorruptOrForeignFieldsAreRefusedByName) {
     expect_refused("fogmap checkpoint 3\n" + good_.substr(kHeader), "format");
     expect_refused("fogmap checkpoint 4\n" + good_.substr(kHeader), "format");
     expect_refused("fogmap checkpoint 5\n" + good_.substr(kHeader), "format");
+    expect_refused("fogmap checkpoint 6\n" + good_.substr(kHeader), "format");
     expect_refused(with_field(good_, kBias, 1 - field(good_, kBias)), "bias");
     expect_refused("not a checkpoint", "format");
     expect_refused(with_field(good_, kHeader, 12345), "fingerprint");
     EXPECT_EQ(field(good_, kFirstCount), 2);
+}
+
+// A run of one iteration states that iteration's estimate from its batches of samples; resumed
+// from its checkpoint (a farm's task run again), it states the same one, where the checkpoint's
+// sum of one iteration has a single batch of iterations.
+TEST_F(Checkpoints, AResumedRunOfOneIterationStatesThatIterationsEstimate) {
+    const std::string args = "render -q " + at("s.json") +
+                             " --iterations 1 --set render.spp=16 -o " + at("one.exr") + " ";
+    const test::RunResult run = test::run_fogmap(args + "--checkpoint-every 1000", dir_);
+    ASSERT_EQ(run.code, 0) << run.err;
+    const std::string exr = test::slurp(at("one.exr"));
+    const test::RunResult resumed = test::run_fogmap(args + "--resume", dir_);
+    ASSERT_EQ(resumed.code, 0) << resumed.err;
+    const std::string line = test::report_line(run.out, "error estimate:");
+    EXPECT_NE(line.find("relMSE"), std::string::npos) << run.out;
+    EXPECT_EQ(test::report_line(resumed.out, "error estimate:"), line);
+    EXPECT_TRUE(test::slurp(at("one.exr")) == exr) << "the resumed run's EXR differs";
 }
 
 // The VDB behind the scene's path changed (its modification time): another run's checkpoint.

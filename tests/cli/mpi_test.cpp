@@ -485,7 +485,7 @@ TEST_F(Mpi, SequenceFramesAreDealtToRankGroups) {
 TEST_F(Mpi, ACheckpointOfOtherSettingsIsRefused) {
     const std::string scene = std::string(FOGMAP_SOURCE_DIR) + "/scenes/fog.json";
     const std::string exr = at("c.exr");
-    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 6\n" + std::string(80, '\x01'));
+    tmp_.write("c.exr.checkpoint", "fogmap checkpoint 7\n" + std::string(80, '\x01'));
     const test::RunResult r = run("render -q " + scene +
                                       " --set camera.width=8 --set camera.height=6 "
                                       "--set progressive.iterations=2 --resume -o " +

@@ -1,7 +1,8 @@
 // A run split by `fogmap render --part I/N` over processes that never talk, put together by
 // `fogmap merge`: the EXR is the bytes one process writes, and those of `mpirun -np N` — for the
 // photon gather, camera paths ending in the volume map (with the map's noise and bias in the
-// estimate), the path tracer, progressive iterations and a sequence's frames
+// estimate), the path tracer, progressive iterations (one iteration's own estimate, carried by the
+// part that ran it) and a sequence's frames
 // — whatever order the parts are given in, and the report counts every part's samples. Parts of
 // another run (seed, settings, N), a missing, repeated, corrupt or cut part, and options a part
 // cannot take are refused with one line naming the file and field, exit 2, nothing written.
@@ -62,6 +63,8 @@ TEST_F(Parts, MergedPartsAreTheImageOfOneProcess) {
          ""},
         {smoke + small + "--spp 4", uniform},  // the map's noise and bias halves in the film
         {smoke + small + "--spp 4 --set render.integrator=path", uniform},
+        // One iteration: its own estimate, from its batches of samples, carried by its part.
+        {smoke + small + "--spp 16 --iterations 1", ""},
     };
     int n = 2;
     for (const auto& [c, alike] : cases) {
@@ -75,6 +78,9 @@ TEST_F(Parts, MergedPartsAreTheImageOfOneProcess) {
             << "the merged EXR differs from one process's";
         for (const char* key : {"samples", "rays", "photons emitted", "error estimate:"})
             EXPECT_EQ(test::report_line(merged.out, key), test::report_line(one.out, key)) << key;
+        EXPECT_NE(test::report_line(merged.out, "error estimate:").find("relMSE"),
+                  std::string::npos)
+            << merged.out;
         EXPECT_NE(merged.out.find(std::to_string(n) + " parts merged"), std::string::npos)
             << merged.out;
         n = n % 4 + 2;  // 2, 3, 4 parts

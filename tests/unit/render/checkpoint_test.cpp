@@ -3,7 +3,8 @@
 // recomputed here), and what read_checkpoint promises to refuse is refused with an InputError
 // naming the file and the checkpoint's field: another fingerprint, a file cut short anywhere, any
 // one bit flipped anywhere, not a checkpoint or an older format, another size than the run's,
-// and fields (checksum made right again) that disagree with the run or with each other.
+// and fields (checksum made right again) that disagree with the run or with each other, iteration
+// 1's error estimate among them.
 
 #include "render/checkpoint.h"
 
@@ -12,13 +13,15 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 #include <string>
+#include <vector>
 
 namespace fogmap {
 namespace {
 
 constexpr uint64_t kFingerprint = 0x0123456789ABCDEFull;
-constexpr char kMagic[] = "fogmap checkpoint 6\n";
+constexpr char kMagic[] = "fogmap checkpoint 7\n";
 
 /// A run of at most 10 iterations, by default 3 x 2, layered and with bias halves.
 CheckpointShape shape(bool layered = true, int width = 3, int height = 2, bool bias = true) {
@@ -53,6 +56,34 @@ Checkpoint hand_built(bool layered = true, int width = 3, int height = 2, bool b
     return c;
 }
 
+/// An estimate of a `width` x `height` film with every field set, its variance distinct per value.
+ErrorEstimate an_estimate(int width = 3, int height = 2) {
+    ErrorEstimate e;
+    e.valid = true;
+    e.batches = 8;
+    e.rel_mse = {2.5e-4, 1.5e-4, 4.0e-4};
+    e.bias_valid = true;
+    e.bias2 = {1e-5, 0.0, 3e-5};
+    e.tail_share = 0.625;
+    e.tail = true;
+    e.top_x = width - 1;
+    e.top_y = 0;
+    e.dof = std::numeric_limits<double>::infinity();
+    e.variance = Image(width, height);
+    for (size_t p = 0; p < e.variance.pixels.size(); ++p)
+        e.variance.pixels[p] = Color(float(p) * 0.5f, 1e-7f * float(p + 1), 3.0e30f);
+    return e;
+}
+
+/// hand_built() of one iteration, with iteration 1's estimate.
+Checkpoint with_estimate(bool layered = true, int width = 3, int height = 2) {
+    Checkpoint c = hand_built(layered, width, height);
+    c.iterations = 1;
+    c.counts[0] = 1;
+    c.first = an_estimate(width, height);
+    return c;
+}
+
 /// The file's bytes by the header's description: the magic line; fingerprint, iterations,
 /// width, height, layered, bias halves, count of counts, counts, count of values, values,
 /// little-endian; the FNV-1a checksum of all before it.
@@ -71,6 +102,34 @@ std::string expected_bytes(const Checkpoint& c) {
     for (int64_t v : c.counts) put(uint64_t(v));
     put(c.sum.values.size());
     for (int64_t v : c.sum.values) put(uint64_t(v));
+    // The estimate's count and values: its fields as error_estimate.h lists them, then each
+    // variance pixel's channels, every one a double's bits.
+    std::vector<double> first;
+    if (c.first) {
+        const ErrorEstimate& e = *c.first;
+        first = {1.0,
+                 double(e.batches),
+                 e.rel_mse.value,
+                 e.rel_mse.lo,
+                 e.rel_mse.hi,
+                 1.0,
+                 e.bias2.value,
+                 e.bias2.lo,
+                 e.bias2.hi,
+                 e.tail_share,
+                 e.tail ? 1.0 : 0.0,
+                 double(e.top_x),
+                 double(e.top_y),
+                 e.dof};
+        for (const Color& v : e.variance.pixels)
+            for (int k = 0; k < 3; ++k) first.push_back(double(v[k]));
+    }
+    put(first.size());
+    for (double v : first) {
+        uint64_t bits;
+        std::memcpy(&bits, &v, 8);
+        put(bits);
+    }
     put(test::fnv1a_64(out));
     return out;
 }
@@ -79,7 +138,33 @@ TEST(Checkpoint, BytesFollowTheStatedLayout) {
     for (bool layered : {true, false}) {
         const Checkpoint c = hand_built(layered);
         EXPECT_EQ(checkpoint_bytes(c), expected_bytes(c)) << "layered " << layered;
+        const Checkpoint first = with_estimate(layered);
+        EXPECT_EQ(checkpoint_bytes(first), expected_bytes(first)) << "layered " << layered;
     }
+}
+
+TEST(Checkpoint, RoundTripKeepsIterationOnesEstimate) {
+    const test::TempDir dir("fogmap_checkpoint");
+    const Checkpoint c = with_estimate();
+    const Checkpoint r = read_checkpoint(dir.write("run.ckpt", checkpoint_bytes(c)), shape());
+    ASSERT_TRUE(r.first.has_value());
+    const ErrorEstimate &a = *c.first, &b = *r.first;
+    EXPECT_TRUE(b.valid);
+    EXPECT_EQ(b.batches, a.batches);
+    EXPECT_EQ(b.rel_mse.value, a.rel_mse.value);
+    EXPECT_EQ(b.rel_mse.lo, a.rel_mse.lo);
+    EXPECT_EQ(b.rel_mse.hi, a.rel_mse.hi);
+    EXPECT_TRUE(b.bias_valid);
+    EXPECT_EQ(b.bias2.value, a.bias2.value);
+    EXPECT_EQ(b.bias2.hi, a.bias2.hi);
+    EXPECT_EQ(b.tail_share, a.tail_share);
+    EXPECT_TRUE(b.tail);
+    EXPECT_EQ(b.top_x, a.top_x);
+    EXPECT_EQ(b.top_y, a.top_y);
+    EXPECT_EQ(b.dof, a.dof);
+    EXPECT_EQ(b.variance.pixels, a.variance.pixels);
+    EXPECT_FALSE(read_checkpoint(dir.write("no.ckpt", checkpoint_bytes(hand_built())), shape())
+                     .first.has_value());
 }
 
 TEST(Checkpoint, RoundTripKeepsEveryField) {
@@ -134,25 +219,30 @@ TEST(Checkpoint, AnotherFingerprintIsRefused) {
     EXPECT_EQ(e.field, "fingerprint") << e.what();
 }
 
-// Every byte tried: on the smallest checkpoint, 1 x 1 and unlayered (196 bytes).
+// Every byte tried: on the smallest checkpoints, 1 x 1 and unlayered (204 bytes; 340 with an
+// estimate).
 TEST(Checkpoint, AFileCutShortAnywhereIsRefused) {
     const test::TempDir dir("fogmap_checkpoint");
-    const std::string bytes = checkpoint_bytes(hand_built(false, 1, 1));
-    for (size_t n = 0; n < bytes.size(); ++n) {
-        SCOPED_TRACE("first " + std::to_string(n) + " of " + std::to_string(bytes.size()) +
-                     " bytes");
-        refusal(dir, bytes.substr(0, n), shape(false, 1, 1));
+    for (const Checkpoint& c : {hand_built(false, 1, 1), with_estimate(false, 1, 1)}) {
+        const std::string bytes = checkpoint_bytes(c);
+        for (size_t n = 0; n < bytes.size(); ++n) {
+            SCOPED_TRACE("first " + std::to_string(n) + " of " + std::to_string(bytes.size()) +
+                         " bytes");
+            refusal(dir, bytes.substr(0, n), shape(false, 1, 1));
+        }
     }
 }
 
 TEST(Checkpoint, AnyFlippedBitIsRefused) {
     const test::TempDir dir("fogmap_checkpoint");
-    const std::string bytes = checkpoint_bytes(hand_built(false, 1, 1));
-    for (size_t at = 0; at < bytes.size(); ++at) {
-        std::string flipped = bytes;
-        flipped[at] = char(flipped[at] ^ (1 << (at % 8)));
-        SCOPED_TRACE("byte " + std::to_string(at));
-        refusal(dir, flipped, shape(false, 1, 1));
+    for (const Checkpoint& c : {hand_built(false, 1, 1), with_estimate(false, 1, 1)}) {
+        const std::string bytes = checkpoint_bytes(c);
+        for (size_t at = 0; at < bytes.size(); ++at) {
+            std::string flipped = bytes;
+            flipped[at] = char(flipped[at] ^ (1 << (at % 8)));
+            SCOPED_TRACE("byte " + std::to_string(at));
+            refusal(dir, flipped, shape(false, 1, 1));
+        }
     }
 }
 
@@ -221,6 +311,39 @@ TEST(Checkpoint, ACountOfValuesThatDisagreesIsRefused) {
     const size_t values_field = 7 + kRunCounts;
     const int64_t values = 3 * 3 * 2 * (1 + kLayerCount + kBatches + 4);
     refusal(dir, with_field(values_field, values - 1));
+}
+
+TEST(Checkpoint, AnEstimateOutOfItsRangeIsRefused) {
+    const test::TempDir dir("fogmap_checkpoint");
+    // The estimate stands after the film's values: its count, then its fields (0 valid, 1
+    // batches, 2-4 the relMSE's interval, ...), then the variance's values.
+    const std::string good = checkpoint_bytes(with_estimate());
+    const size_t count = good.size() - 8 * (2 + estimate_value_count(3, 2));
+    const auto with_value = [&](size_t at, double v) {
+        std::string bytes = good;
+        std::memcpy(&bytes[at], &v, 8);
+        const uint64_t sum = test::fnv1a_64(bytes.substr(0, bytes.size() - 8));
+        std::memcpy(&bytes[bytes.size() - 8], &sum, sizeof sum);
+        return bytes;
+    };
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = 1e300 * 1e300;
+    const struct {
+        size_t value;  ///< 0: the count; k: the estimate's value k − 1 (field k − 1 to 13)
+        double v;
+    } cases[] = {{1, 0.0},   {1, 2.0},  {2, 9.0},   {2, 1.5},   {3, nan},  {4, -1e-4},
+                 {5, 1e-4},  {6, 0.5},  {9, inf},   {10, 1.5},  {11, 0.5}, {12, 3.0},
+                 {13, -2.0}, {14, 0.0}, {16, -1.0}, {20, 1e39}, {17, nan}};
+    for (const auto& c : cases) {
+        SCOPED_TRACE("value " + std::to_string(c.value) + " = " + std::to_string(c.v));
+        EXPECT_EQ(refusal(dir, with_value(count + 8 * c.value, c.v)).field, "estimate");
+    }
+    // A count of values other than the estimate's (the file's size says it holds one).
+    std::string bytes = good;
+    const int64_t fewer = int64_t(estimate_value_count(3, 2)) - 1;
+    std::memcpy(&bytes[count], &fewer, 8);
+    const uint64_t sum = test::fnv1a_64(bytes.substr(0, bytes.size() - 8));
+    std::memcpy(&bytes[bytes.size() - 8], &sum, sizeof sum);
+    EXPECT_EQ(refusal(dir, bytes).field, "estimate");
 }
 
 TEST(Checkpoint, AMissingFileOrAFolderIsRefused) {
