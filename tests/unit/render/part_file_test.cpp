@@ -1,8 +1,9 @@
 // Part files (render/part_file.h): a hand-built part survives part_bytes and read_part with every
 // field the merge reads — the run, the film's shape, the counts, values with runs of zeros at the
 // start, middle and end, the unfinished report — and read_part_run reads the same run from the
-// first bytes alone; a file cut short anywhere or with any byte changed is refused with an
-// InputError naming the file.
+// first bytes alone; iteration 1's error estimate, where the part holds one, round-trips and is
+// refused by name where its values are not an estimate's; a file cut short anywhere or with any
+// byte changed is refused with an InputError naming the file.
 
 #include "render/part_file.h"
 
@@ -12,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <string>
 
 namespace fogmap {
@@ -113,6 +115,64 @@ TEST(PartFile, RoundTripKeepsEveryFieldTheMergeReads) {
     EXPECT_EQ(r.report.warnings, s.report.warnings);
 }
 
+/// hand_built() of a part that ran iteration 1 of a run that may end there: its estimate set.
+PartFile with_estimate() {
+    PartFile p = hand_built();
+    ErrorEstimate& e = p.sums.first.emplace();
+    e.valid = true;
+    e.batches = 7;
+    e.rel_mse = {3e-4, 2e-4, 5e-4};
+    e.bias_valid = true;
+    e.bias2 = {-1e-6, 0.0, 2e-6};  // a bias² estimate may fall below its interval's 0
+    e.tail_share = 0.25;
+    e.top_x = 2;
+    e.top_y = 1;
+    e.dof = 12.5;
+    e.variance = Image(3, 2);
+    for (size_t i = 0; i < e.variance.pixels.size(); ++i)
+        e.variance.pixels[i] = Color(1e-9f * float(i), 0.0f, 7.0f);
+    return p;
+}
+
+TEST(PartFile, IterationOnesEstimateRoundTrips) {
+    const test::TempDir dir("fogmap_part");
+    EXPECT_FALSE(read_part(dir.write("p.fogpart", part_bytes(hand_built()))).sums.first);
+    const PartFile p = with_estimate();
+    const PartSums r = read_part(dir.write("e.fogpart", part_bytes(p))).sums;
+    ASSERT_TRUE(r.first.has_value());
+    const ErrorEstimate &a = *p.sums.first, &b = *r.first;
+    EXPECT_TRUE(b.valid);
+    EXPECT_EQ(b.batches, 7);
+    EXPECT_EQ(b.rel_mse.value, a.rel_mse.value);
+    EXPECT_EQ(b.rel_mse.hi, a.rel_mse.hi);
+    EXPECT_EQ(b.bias2.value, a.bias2.value);
+    EXPECT_EQ(b.tail_share, a.tail_share);
+    EXPECT_FALSE(b.tail);
+    EXPECT_EQ(b.top_x, 2);
+    EXPECT_EQ(b.top_y, 1);
+    EXPECT_EQ(b.dof, 12.5);
+    EXPECT_EQ(b.variance.pixels, a.variance.pixels);
+    EXPECT_EQ(r.values, p.sums.values);
+}
+
+// The estimate stands last before the checksum: its count, its 14 fields (the first: valid), then
+// the variance's 3 x 2 x 3 values, each 8 bytes.
+TEST(PartFile, AnEstimateThatIsNotOneIsRefusedByName) {
+    const test::TempDir dir("fogmap_part");
+    const std::string good = part_bytes(with_estimate());
+    const size_t valid = good.size() - 8 - 8 * (14 + 18);
+    for (const double v : {0.0, 2.0}) {
+        std::string bytes = good;
+        std::memcpy(&bytes[valid], &v, 8);
+        const uint64_t sum = test::fnv1a_64(bytes.substr(0, bytes.size() - 8));
+        std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
+        const std::string path = dir.write("bad.fogpart", bytes);
+        const InputError e = test::catch_input_error([&] { read_part(path); });
+        EXPECT_EQ(e.file, path);
+        EXPECT_EQ(e.field, "estimate") << e.what();
+    }
+}
+
 TEST(PartFile, AllZeroAndNoZeroFilmsRoundTrip) {
     const test::TempDir dir("fogmap_part");
     for (const int64_t fill : {int64_t(0), int64_t(3)}) {
@@ -124,17 +184,18 @@ TEST(PartFile, AllZeroAndNoZeroFilmsRoundTrip) {
 
 TEST(PartFile, AFileCutShortOrChangedAnywhereIsRefused) {
     const test::TempDir dir("fogmap_part");
-    PartFile p = hand_built();
-    p.sums.report = Report{};  // a smaller file; every byte is tried
-    const std::string bytes = part_bytes(p);
-    for (size_t n = 0; n < bytes.size(); ++n) {
-        SCOPED_TRACE("byte " + std::to_string(n) + " of " + std::to_string(bytes.size()));
-        const std::string cut = dir.write("cut.fogpart", bytes.substr(0, n));
-        EXPECT_EQ(test::catch_input_error([&] { read_part(cut); }).file, cut);
-        std::string changed = bytes;
-        changed[n] = char(changed[n] ^ 0x01);
-        const std::string bad = dir.write("bad.fogpart", changed);
-        EXPECT_EQ(test::catch_input_error([&] { read_part(bad); }).file, bad);
+    for (PartFile p : {hand_built(), with_estimate()}) {
+        p.sums.report = Report{};  // a smaller file; every byte is tried
+        const std::string bytes = part_bytes(p);
+        for (size_t n = 0; n < bytes.size(); ++n) {
+            SCOPED_TRACE("byte " + std::to_string(n) + " of " + std::to_string(bytes.size()));
+            const std::string cut = dir.write("cut.fogpart", bytes.substr(0, n));
+            EXPECT_EQ(test::catch_input_error([&] { read_part(cut); }).file, cut);
+            std::string changed = bytes;
+            changed[n] = char(changed[n] ^ 0x01);
+            const std::string bad = dir.write("bad.fogpart", changed);
+            EXPECT_EQ(test::catch_input_error([&] { read_part(bad); }).file, bad);
+        }
     }
 }
 
