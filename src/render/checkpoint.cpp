@@ -83,8 +83,10 @@ std::string header(const std::string& path) {
     return head;
 }
 
-/// The fields of a checkpoint of the right size and checksum, each checked against the run.
-Checkpoint parse(const std::string& path, const std::string& bytes, const CheckpointShape& shape) {
+/// The fields of a checkpoint of the right size and checksum, each checked against the run;
+/// `with_first`: its size is that of one with iteration 1's estimate.
+Checkpoint parse(const std::string& path, const std::string& bytes, const CheckpointShape& shape,
+                 bool with_first) {
     Fields f(bytes);
     Checkpoint c;
     c.fingerprint = uint64_t(f.next());
@@ -114,7 +116,6 @@ Checkpoint parse(const std::string& path, const std::string& bytes, const Checkp
     c.sum.values.resize(size_t(values));
     std::memcpy(c.sum.values.data(), bytes.data() + f.at(), size_t(values) * sizeof(int64_t));
     f.skip(size_t(values));
-    const bool with_first = bytes.size() == expected_bytes(shape, true);
     const size_t estimate = with_first ? estimate_value_count(shape.width, shape.height) : 0;
     expect(path, "estimate", f.next(), int64_t(estimate),
            "number of estimate values (by the file's size)");
@@ -141,7 +142,7 @@ std::string checkpoint_bytes(const Checkpoint& c) {
     put(&out, int64_t(c.sum.values.size()));
     out.append(reinterpret_cast<const char*>(c.sum.values.data()),
                c.sum.values.size() * sizeof(int64_t));
-    const std::vector<int64_t> first = c.first ? estimate_values(*c.first) : std::vector<int64_t>{};
+    const std::vector<int64_t> first = estimate_values(c.first);
     put(&out, int64_t(first.size()));
     for (int64_t v : first) put(&out, v);
     put(&out, fnv1a(out));
@@ -164,18 +165,20 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointShape& shape
              "between a run and its resumption, and the input files not at all)");
     // Read no more than this run's checkpoint takes: a file of another size is named, not loaded.
     const uint64_t size = std::filesystem::file_size(path, ec);
-    const uint64_t want = expected_bytes(shape, size != expected_bytes(shape, false));
+    const uint64_t without = expected_bytes(shape, false);
+    const bool first = size != without;  // the one other size a checkpoint of this run has
+    const uint64_t want = first ? expected_bytes(shape, true) : without;
     if (size != want)
         fail(path, "size",
              std::to_string(size) + " bytes; a checkpoint of this run has " +
-                 std::to_string(expected_bytes(shape, false)) + ", or " + std::to_string(want) +
+                 std::to_string(without) + ", or " + std::to_string(want) +
                  " with its first iteration's error estimate");
     const std::string bytes = read_input_file(path, "size", "checkpoint", want);
     uint64_t sum;
     std::memcpy(&sum, bytes.data() + want - 8, 8);
     if (bytes.size() != want || sum != fnv1a(bytes.substr(0, want - 8)))
         fail(path, "checksum", "its contents do not match their checksum: the file is corrupt");
-    return parse(path, bytes, shape);
+    return parse(path, bytes, shape, first);
 }
 
 }  // namespace fogmap

@@ -485,9 +485,11 @@ size_t estimate_value_count(int width, int height) {
     return kEstimateFields + size_t(3) * size_t(width) * size_t(height);
 }
 
-std::vector<int64_t> estimate_values(const ErrorEstimate& e) {
-    FOGMAP_ASSERT(e.valid && !e.variance.pixels.empty(), "a valid estimate has its variance");
+std::vector<int64_t> estimate_values(const std::optional<ErrorEstimate>& estimate) {
     std::vector<int64_t> v;
+    if (!estimate) return v;
+    const ErrorEstimate& e = *estimate;
+    FOGMAP_ASSERT(e.valid && !e.variance.pixels.empty(), "a valid estimate has its variance");
     const auto put = [&v](double x) { v.push_back(bits_of(x)); };
     for (double x : {double(e.valid), double(e.batches), e.rel_mse.value, e.rel_mse.lo,
                      e.rel_mse.hi, double(e.bias_valid), e.bias2.value, e.bias2.lo, e.bias2.hi,

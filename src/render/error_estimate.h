@@ -62,8 +62,9 @@ ErrorEstimate estimate_error(const Film& film, int spp);
 
 /// A valid estimate as integers, for the files that carry iteration 1's to where a run that ends
 /// after it ends (a checkpoint, a part file): each field, then the variance's pixels, as the bits
-/// of doubles (exact: every value is a double or a float); estimate_value_count(w, h) of them.
-std::vector<int64_t> estimate_values(const ErrorEstimate& e);
+/// of doubles (exact: every value is a double or a float); estimate_value_count(w, h) of them,
+/// none without an estimate.
+std::vector<int64_t> estimate_values(const std::optional<ErrorEstimate>& estimate);
 size_t estimate_value_count(int width, int height);
 /// The inverse for a `width` x `height` film, or nothing where `values` are not what
 /// estimate_values writes (not valid, or a count, flag, interval or variance out of its range).

@@ -249,8 +249,7 @@ std::string part_bytes(const PartFile& part) {
     put(&out, uint64_t(sums.counts.size()));
     for (int64_t v : sums.counts) put(&out, v);
     put_values(&out, sums.values);
-    const std::vector<int64_t> first =
-        sums.first ? estimate_values(*sums.first) : std::vector<int64_t>{};
+    const std::vector<int64_t> first = estimate_values(sums.first);
     put(&out, uint64_t(first.size()));
     for (int64_t v : first) put(&out, v);
     put(&out, fnv1a(out));

@@ -478,16 +478,15 @@ void RunSetup::set_reason(std::string why) {
                              " iterations, no more than the " + std::to_string(measured) +
                              " that would measure for the later ones)";
     else if (measured > 0)  // a first pass leaves nothing below 8 spp, where more measure
-        said +=
-            "; adaptive sampling across iterations: " +
-            (passes          ? "iteration 1 takes " + two_passes + ", every later one"
-             : measured == 1 ? "iteration 1 takes its " + std::to_string(spp) +
-                                   " spp in every pixel, every later one"
-                             : "iterations 1-" + std::to_string(measured) + " take their " +
-                                   std::to_string(spp) + " spp in every pixel, every later one") +
-            " a uniform iteration's work where " +
-            (passes ? "that first pass shows" : "they show") +
-            " the error, and each pixel is the mean of all its samples";
+        said += "; adaptive sampling across iterations: " +
+                (passes ? "iteration 1 takes " + two_passes
+                        : (measured == 1
+                               ? std::string("iteration 1 takes its ")
+                               : "iterations 1-" + std::to_string(measured) + " take their ") +
+                              std::to_string(spp) + " spp in every pixel") +
+                ", every later one a uniform iteration's work where " +
+                (passes ? "that first pass shows" : "they show") +
+                " the error, and each pixel is the mean of all its samples";
     else if (run.render.adaptive)
         said += "; adaptive sampling: " + two_passes;
 }
