@@ -84,7 +84,8 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
 }
 
 Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
-                         int k, float r_max, NeighborList& scratch, BatchSums* batches) {
+                         int k, float r_max, NeighborList& scratch, BatchSums* batches,
+                         HalfCentroids* centroids) {
     find(map, x, k, r_max, scratch);
     if (scratch.empty()) return Color(0.0f);
     const float r2 = estimate_radius2(scratch, k, r_max);
@@ -95,9 +96,11 @@ Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, co
     for (size_t i = 0; i < scratch.size(); ++i) {
         if (i == skip) continue;
         const Photon& p = photons[scratch[i].index];
-        const Color c = phase.eval(glm::dot(p.direction(), wo)) * p.power();
+        const Color power = p.power();
+        const Color c = phase.eval(glm::dot(p.direction(), wo)) * power;
         sum += c;
         if (batches) batches->add(p, c, scratch[i].dist2, r2);
+        if (centroids) centroids->add(p, p.position() - x, average(power));
     }
     const float volume = (4.0f / 3.0f) * kPi * r2 * std::sqrt(r2);
     return sum * (map.photon_power / volume);

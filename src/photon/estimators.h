@@ -95,10 +95,24 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
 float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
                           float r_max);
 
+/// Each photon half's (batches 0-3, 4-7) power-weighted sum of the photons' offsets from a
+/// lookup's point, and its power (the channels' averages, relative): the halves' centroids
+/// (render/volume_map_end.h, BlurCorrection).
+struct HalfCentroids {
+    std::array<DVec3, 2> moment{DVec3(0.0), DVec3(0.0)};
+    std::array<double, 2> power{0.0, 0.0};
+    void add(const Photon& p, const Vec3& offset, float p_power) {
+        const int half = p.batch() * 2 / Photon::kBatches;
+        moment[half] += double(p_power) * DVec3(offset);
+        power[half] += p_power;
+    }
+};
+
 /// In-scattered radiance σ_s L_i (W/(m³ sr)) towards unit direction wo at x, with the phase
 /// function at x applied to each photon's travel direction. `batches` (may be null): what each
-/// photon batch gave.
+/// photon batch gave; `centroids` (may be null): the photon halves' centroids about x.
 Color volume_inscattered(const PhotonMap& map, const Vec3& x, const Vec3& wo, const PhaseMix& phase,
-                         int k, float r_max, NeighborList& scratch, BatchSums* batches = nullptr);
+                         int k, float r_max, NeighborList& scratch, BatchSums* batches = nullptr,
+                         HalfCentroids* centroids = nullptr);
 
 }  // namespace fogmap

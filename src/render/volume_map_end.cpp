@@ -456,8 +456,10 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
                      (map_.photon_power * kInvFourPi / volume);
         if (parts && !batch_power_.empty()) parts_of(grid_sums(c), 1.0f, parts);
     } else {
-        collisions =
-            volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch, parts ? &sums : nullptr);
+        HalfCentroids halves;
+        collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch,
+                                        parts ? &sums : nullptr, &halves);
+        collisions /= blur_factor(x, radius_, halves);
         if (parts) parts_of(sums, kappa(x, radius_), parts);
     }
     return corrected(divide(collisions, density), radius_);
@@ -512,8 +514,38 @@ BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {
 Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
                                  NeighborList& scratch, BatchSums* parts) const {
     const float r = radius_ * std::cbrt(k_ / n);
-    return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts),
+    if (interpolates()) {
+        return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts),
+                      table_->cube_average(x, equal_volume_edge(r)));
+    }
+    HalfCentroids halves;
+    const Color collisions =
+        volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts, &halves);
+    return divide(collisions / blur_factor(x, r, halves),
                   table_->cube_average(x, equal_volume_edge(r)));
+}
+
+// BlurCorrection (header).
+float VolumeMapEnd::blur_factor(const Vec3& x, float rho, const HalfCentroids& halves) const {
+    if (!(halves.power[0] > 0.0 && halves.power[1] > 0.0)) return 1.0f;
+    // (a + b) ρ = 5 × the centroid in ball radii; |a + b|² ρ² from the halves' product.
+    const double ab2 =
+        25.0 * glm::dot(halves.moment[0] / halves.power[0], halves.moment[1] / halves.power[1]) /
+        (double(rho) * rho);
+    // a = ∇σ̄_s / σ̄_s (the channels averaged): central differences a grid cell either side.
+    const float here = average(density_.at(x));
+    if (!(here > 0.0f)) return 1.0f;
+    const float h = density_.cell();
+    Vec3 gradient(0.0f);
+    for (int axis = 0; axis < 3; ++axis) {
+        Vec3 step(0.0f);
+        step[axis] = h;
+        gradient[axis] =
+            (average(density_.at(x + step)) - average(density_.at(x - step))) / (2.0f * h);
+    }
+    const DVec3 a_e = DVec3(gradient * (equal_volume_edge(rho) / here));
+    const double factor = (1.0 + ab2 / 10.0) / (1.0 + glm::dot(a_e, a_e) / 24.0);
+    return float(std::clamp(factor, double(kBlurFactorMin), double(kBlurFactorMax)));
 }
 
 }  // namespace fogmap
