@@ -706,7 +706,9 @@ TEST(VolumeMapEnd, AKdTreeLookupIsTheLightAtItsCentreWhereLightAndDensityFallExp
             got += end.inscattered(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())),
                                    phase, scratch)
                        .x;
-            light += std::exp(b * p.x) / (4.0 * kPi * z);  // L / (4π z): see above
+            // E = ρ ΔΦ f / σ_s: ρ = count σ_s L / z photons a volume, ΔΦ = 1 / count, and f
+            // averaging 1/4π over directions pointing every way.
+            light += std::exp(b * p.x) / (4.0 * kPi * z);
         }
         // The uncorrected estimate's expected ratio (s = c ρ, t = a e / 2).
         const auto ball = [](double s) {
