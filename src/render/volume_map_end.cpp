@@ -444,7 +444,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
     BatchSums sums;
     if (crowded(m.count)) {
         const float rho = radius_ * std::cbrt(k_ / m.count);
-        const Color e = smaller_ball(x, dir, phase, m.count, scratch, parts ? &sums : nullptr);
+        const Color e = smaller_ball(x, dir, phase, m.count, c, scratch, parts ? &sums : nullptr);
         if (parts) parts_of(sums, kappa(x, rho), parts);
         return corrected(e, rho);
     }
@@ -459,7 +459,7 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
         HalfCentroids halves;
         collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch,
                                         parts ? &sums : nullptr, &halves);
-        collisions /= blur_factor(x, radius_, halves);
+        collisions /= blur_factor(radius_, halves, c);
         if (parts) parts_of(sums, kappa(x, radius_), parts);
     }
     return corrected(divide(collisions, density), radius_);
@@ -512,7 +512,8 @@ BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {
 // AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's
 // equal-volume cube.
 Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                                 NeighborList& scratch, BatchSums* parts) const {
+                                 const KernelDensity::Corners& c, NeighborList& scratch,
+                                 BatchSums* parts) const {
     const float r = radius_ * std::cbrt(k_ / n);
     if (interpolates()) {
         return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts),
@@ -521,30 +522,49 @@ Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix&
     HalfCentroids halves;
     const Color collisions =
         volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts, &halves);
-    return divide(collisions / blur_factor(x, r, halves),
+    return divide(collisions / blur_factor(r, halves, c),
                   table_->cube_average(x, equal_volume_edge(r)));
 }
 
 // BlurCorrection (header).
-float VolumeMapEnd::blur_factor(const Vec3& x, float rho, const HalfCentroids& halves) const {
+float VolumeMapEnd::blur_factor(float rho, const HalfCentroids& halves,
+                                const KernelDensity::Corners& c) const {
     if (!(halves.power[0] > 0.0 && halves.power[1] > 0.0)) return 1.0f;
-    // (a + b) ρ = 5 × the centroid in ball radii; |a + b|² ρ² from the halves' product.
-    const double ab2 =
-        25.0 * glm::dot(halves.moment[0] / halves.power[0], halves.moment[1] / halves.power[1]) /
+    // |a + b|² ρ² from the halves' centroids' product μ (in ball radii²): the centroid is
+    // ρ g(s) along a + b, g(s) = s/5 − s³/175 + …, so s² = 25 μ (1 + 10 μ / 7) to fourth order.
+    const double mu =
+        glm::dot(halves.moment[0] / halves.power[0], halves.moment[1] / halves.power[1]) /
         (double(rho) * rho);
-    // a = ∇σ̄_s / σ̄_s (the channels averaged): central differences a grid cell either side.
-    const float here = average(density_.at(x));
-    if (!(here > 0.0f)) return 1.0f;
-    const float h = density_.cell();
-    Vec3 gradient(0.0f);
-    for (int axis = 0; axis < 3; ++axis) {
-        Vec3 step(0.0f);
-        step[axis] = h;
-        gradient[axis] =
-            (average(density_.at(x + step)) - average(density_.at(x - step))) / (2.0f * h);
+    const double s2 = 25.0 * mu * (1.0 + 10.0 * mu / 7.0);
+    // a = ∇σ̄_s / σ̄_s (the channels averaged) from the grid's cell about x: along each axis the
+    // log of its two faces' ratio (their values interpolated as x's is) over the cell, exact for
+    // an exponential σ_s (whose box averages vary as it does); where a face holds none, the
+    // trilinear slope over the value at x.
+    const float cell = density_.cell();
+    Vec3 gradient(0.0f), upper(0.0f), lower(0.0f);
+    float here = 0.0f;
+    for (int n = 0; n < 8; ++n) {
+        const float v = average(density_.node_value(c.node[n]));
+        here += v * c.weight[n];
+        for (int axis = 0; axis < 3; ++axis) {
+            const float d = c.gradient[n][axis];  // ±(the other axes' weights) / cell
+            gradient[axis] += v * d;
+            (d > 0.0f ? upper : lower)[axis] += v * std::abs(d);
+        }
     }
-    const DVec3 a_e = DVec3(gradient * (equal_volume_edge(rho) / here));
-    const double factor = (1.0 + ab2 / 10.0) / (1.0 + glm::dot(a_e, a_e) / 24.0);
+    if (!(here > 0.0f)) return 1.0f;
+    gradient /= here;
+    for (int axis = 0; axis < 3; ++axis)
+        if (upper[axis] > 0.0f && lower[axis] > 0.0f)
+            gradient[axis] = std::log(upper[axis] / lower[axis]) / cell;
+    const DVec3 a_e = DVec3(gradient * equal_volume_edge(rho));
+    // The ball's mean of e^{s u_x} and the cube's of e^{a·u}, each to fourth order.
+    double cube = 1.0;
+    for (int axis = 0; axis < 3; ++axis) {
+        const double t2 = a_e[axis] * a_e[axis] / 4.0;  // (a e / 2)²
+        cube *= 1.0 + t2 / 6.0 + t2 * t2 / 120.0;
+    }
+    const double factor = (1.0 + s2 / 10.0 + s2 * s2 / 280.0) / cube;
     return float(std::clamp(factor, double(kBlurFactorMin), double(kBlurFactorMax)));
 }
 

@@ -223,25 +223,28 @@ public:
 
     // BlurCorrection, where lookups search the kd-tree (they have no LeanCorrection). Where σ_s
     // and the light both vary exponentially across the ball, σ_s ∝ e^{a·u} and L ∝ e^{b·u}, the
-    // photons' density ∝ σ_s L, and the estimate is L(x) (1 + |a + b|² ρ² / 10) /
-    // (1 + |a|² e² / 24) to second order (ρ the ball's radius, e the edge of the cube σ̄_s is
-    // averaged over): under a dense medium's sun-lit face the light falls off about
-    // exponentially, and the ball's average lies above its centre's value. a + b comes from the
-    // photons' centroid, (ρ² / 5)(a + b); |a + b|² from the product of the two photon halves'
-    // centroids (independent paths, so their noise does not add to it; a half's own centroid
-    // squared would, and photons of one path cluster); a = ∇σ̄_s / σ̄_s from the σ̄_s grid by
-    // central differences a grid cell either side (an exponential σ_s's box averages vary as it
-    // does; a little high where it curves, finite at a medium's edge). The estimate is divided
-    // by that factor, held within [kBlurFactorMin, kBlurFactorMax]; without a photon in each
-    // half it is left as it is. It sees blur that follows a gradient; a symmetric bump is left
-    // to RadiusBias.
+    // photons' density is ∝ σ_s L and the estimate is L(x) times the ball's mean of
+    // e^{(a+b)·u} over the mean of e^{a·u} on the cube σ̄_s averages over (edge e): both above
+    // 1, the first as 1 + s²/10 + s⁴/280 (s = |a + b| ρ), the second as the product over axes of
+    // sinh(t)/t (t = a_i e / 2), each taken to fourth order. Under a dense medium's sun-lit face
+    // the light falls off about exponentially, and the ball's average lies above its centre's
+    // value. s comes from the photons' centroid, ρ (s/5 − s³/175 + …) along a + b, its square
+    // from the product of the two photon halves' centroids (independent paths, so their noise
+    // does not add to it; a half's own centroid squared would, and photons of one path
+    // cluster); a = ∇σ̄_s / σ̄_s from the σ̄_s grid's cell about x, as the log of its two faces'
+    // ratio along each axis (exact where σ_s is exponential, whose box averages vary as it
+    // does; the trilinear slope where a face holds no medium). The estimate is divided by the
+    // ratio, held within [kBlurFactorMin, kBlurFactorMax]; without a photon in each half it is
+    // left as it is. It sees blur that follows a gradient; a symmetric bump is left to
+    // RadiusBias.
     // Why: the Disney cloud's medium came out 1.4% bright at 16 spp (docs/why.md).
     static constexpr float kBlurFactorMin = 0.5f, kBlurFactorMax = 2.0f;
 
 private:
     /// BlurCorrection's factor for a lookup within rho of x whose photon halves' centroids are
     /// `halves`.
-    float blur_factor(const Vec3& x, float rho, const HalfCentroids& halves) const;
+    float blur_factor(float rho, const HalfCentroids& halves,
+                      const KernelDensity::Corners& c) const;
     /// RadiusBias's κ at x for radius rho (kBallKappa without a table).
     float kappa(const Vec3& x, float rho) const;
     /// PhotonBatches' and RadiusBias's parts of a lookup from its batches' sums, whose inner sums
@@ -253,7 +256,8 @@ private:
     /// n photons within r call for AdaptiveRadius.
     bool crowded(float n) const { return table_ && k_ > 0.0f && n > 2.0f * k_; }
     Color smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                       NeighborList& scratch, BatchSums* parts) const;
+                       const KernelDensity::Corners& c, NeighborList& scratch,
+                       BatchSums* parts) const;
     // The estimate at a grid point p is Σ_p ΔΦ f(ω_p · ω_o) over the photons within r, and f's
     // Legendre series up to l = 2 makes it linear in the photons' moments Σ ΔΦ, Σ ΔΦ ω and
     // Σ ΔΦ ω ωᵀ: computed once per grid point, interpolated trilinearly at a lookup (one more
