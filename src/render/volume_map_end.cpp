@@ -115,6 +115,21 @@ Color KernelDensity::at(const Vec3& x) const {
     return s;
 }
 
+KernelDensity::Slope KernelDensity::slope(const Corners& c) const {
+    Slope out;
+    for (int n = 0; n < 8; ++n) {
+        const Color& v = values_[c.node[n]];
+        const float sum = v.x + v.y + v.z;
+        out.gradient += sum * c.gradient[n];
+        out.value += c.weight[n] * sum;
+        for (int axis = 0; axis < 3; ++axis) {
+            const float d = c.gradient[n][axis];  // ±(the other axes' weights) / cell
+            (d > 0.0f ? out.upper : out.lower)[axis] += sum * std::abs(d);
+        }
+    }
+    return out;
+}
+
 Vec3 KernelDensity::node_position(size_t n) const {
     const size_t nx = dims_[0], ny = dims_[1];
     return origin_ + cell_ * Vec3(float(n % nx), float((n / nx) % ny), float(n / (nx * ny)));
@@ -393,13 +408,9 @@ Color VolumeMapEnd::phase_sum(const Moments& m, const Vec3& o, const PhaseMix& p
 // either side, u the direction in which σ̄_s grows.
 Color VolumeMapEnd::lean(const KernelDensity::Corners& c, const Vec3& x, const Color& density,
                          const Vec3& o, const PhaseMix& phase, float rho) const {
-    Vec3 grad(0.0f);  // of the channels' summed σ̄_s
-    float sum = 0.0f;
-    for (int n = 0; n < 8; ++n) {
-        const Color& v = density_.node_value(c.node[n]);
-        grad += (v.x + v.y + v.z) * c.gradient[n];
-        sum += c.weight[n] * (v.x + v.y + v.z);
-    }
+    const KernelDensity::Slope slope = density_.slope(c);  // of the channels' summed σ̄_s
+    const Vec3& grad = slope.gradient;
+    const float sum = slope.value;
     const float length = glm::length(grad);
     // Where the centroid moves less than kLeanMinOffset ρ, the correction is left out.
     if (!(sum > 0.0f) || (rho * rho / 5.0f) * length / sum < kLeanMinOffset * rho)
@@ -515,15 +526,11 @@ Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix&
                                  const KernelDensity::Corners& c, NeighborList& scratch,
                                  BatchSums* parts) const {
     const float r = radius_ * std::cbrt(k_ / n);
-    if (interpolates()) {
-        return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts),
-                      table_->cube_average(x, equal_volume_edge(r)));
-    }
-    HalfCentroids halves;
-    const Color collisions =
-        volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts, &halves);
-    return divide(collisions / blur_factor(r, halves, c),
-                  table_->cube_average(x, equal_volume_edge(r)));
+    HalfCentroids halves;  // BlurCorrection's, where no LeanCorrection follows
+    Color collisions = volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts,
+                                          interpolates() ? nullptr : &halves);
+    if (!interpolates()) collisions /= blur_factor(r, halves, c);
+    return divide(collisions, table_->cube_average(x, equal_volume_edge(r)));
 }
 
 // BlurCorrection (header).
@@ -536,27 +543,16 @@ float VolumeMapEnd::blur_factor(float rho, const HalfCentroids& halves,
         glm::dot(halves.moment[0] / halves.power[0], halves.moment[1] / halves.power[1]) /
         (double(rho) * rho);
     const double s2 = 25.0 * mu * (1.0 + 10.0 * mu / 7.0);
-    // a = ∇σ̄_s / σ̄_s (the channels averaged) from the grid's cell about x: along each axis the
+    // a = ∇σ̄_s / σ̄_s (the channels summed) from the grid's cell about x: along each axis the
     // log of its two faces' ratio (their values interpolated as x's is) over the cell, exact for
     // an exponential σ_s (whose box averages vary as it does); where a face holds none, the
     // trilinear slope over the value at x.
-    const float cell = density_.cell();
-    Vec3 gradient(0.0f), upper(0.0f), lower(0.0f);
-    float here = 0.0f;
-    for (int n = 0; n < 8; ++n) {
-        const float v = average(density_.node_value(c.node[n]));
-        here += v * c.weight[n];
-        for (int axis = 0; axis < 3; ++axis) {
-            const float d = c.gradient[n][axis];  // ±(the other axes' weights) / cell
-            gradient[axis] += v * d;
-            (d > 0.0f ? upper : lower)[axis] += v * std::abs(d);
-        }
-    }
-    if (!(here > 0.0f)) return 1.0f;
-    gradient /= here;
+    const KernelDensity::Slope slope = density_.slope(c);
+    if (!(slope.value > 0.0f)) return 1.0f;
+    Vec3 gradient = slope.gradient / slope.value;
     for (int axis = 0; axis < 3; ++axis)
-        if (upper[axis] > 0.0f && lower[axis] > 0.0f)
-            gradient[axis] = std::log(upper[axis] / lower[axis]) / cell;
+        if (slope.upper[axis] > 0.0f && slope.lower[axis] > 0.0f)
+            gradient[axis] = std::log(slope.upper[axis] / slope.lower[axis]) / density_.cell();
     const DVec3 a_e = DVec3(gradient * equal_volume_edge(rho));
     // The ball's mean of e^{s u_x} and the cube's of e^{a·u}, each to fourth order.
     double cube = 1.0;

@@ -62,6 +62,14 @@ public:
     };
     /// False beyond the grid (or when it is empty).
     bool corners(const Vec3& x, Corners* c) const;
+    /// σ̄_s's channels summed, from the corners c about x: its value at x, its trilinear
+    /// gradient, and along each axis the value on the cell's upper and lower faces, each
+    /// interpolated over the other two axes as x's is (times 1 / cell).
+    struct Slope {
+        float value = 0.0f;
+        Vec3 gradient{0.0f}, upper{0.0f}, lower{0.0f};
+    };
+    Slope slope(const Corners& c) const;
     size_t nodes() const { return values_.size(); }
     Vec3 node_position(size_t n) const;
     const Color& node_value(size_t n) const { return values_[n]; }
