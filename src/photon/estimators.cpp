@@ -69,8 +69,8 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
     return sum * (map.photon_power / (kPi * r2 * norm));
 }
 
-float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
-                          float r_max) {
+std::vector<float> knn_distances(const PhotonMap& map, const std::vector<Vec3>& points, int k,
+                                 float r_max) {
     std::vector<float> r(points.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, points.size(), 64), [&](const auto& range) {
         NeighborList scratch;
@@ -79,7 +79,13 @@ float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points,
             r[i] = static_cast<int>(scratch.size()) == k ? std::sqrt(scratch.max_dist2()) : r_max;
         }
     });
-    std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+    std::sort(r.begin(), r.end());
+    return r;
+}
+
+float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
+                          float r_max) {
+    const std::vector<float> r = knn_distances(map, points, k, r_max);
     return r[r.size() / 2];
 }
 

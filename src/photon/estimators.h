@@ -89,9 +89,13 @@ Color surface_irradiance(const PhotonMap& map, const Vec3& x, const Vec3& n, int
                          float cone_kf, uint8_t skip_flags, NeighborList& scratch,
                          BatchSums* batches = nullptr);
 
-/// The median, over `points` (not empty), of the distance from each to its k-th nearest photon of
-/// `map`, r_max for a point with fewer than k within r_max: the radius a map's gathers share
-/// (progressive and end-of-path gathers, photon beams). Points in parallel; deterministic.
+/// The distance from each of `points` to its k-th nearest photon of `map`, r_max for a point with
+/// fewer than k within r_max, in ascending order. Points in parallel; deterministic.
+std::vector<float> knn_distances(const PhotonMap& map, const std::vector<Vec3>& points, int k,
+                                 float r_max);
+
+/// Their median (`points` not empty): the radius a map's gathers share (progressive and
+/// end-of-path gathers, photon beams).
 float median_knn_distance(const PhotonMap& map, const std::vector<Vec3>& points, int k,
                           float r_max);
 

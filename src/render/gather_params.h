@@ -17,6 +17,7 @@ struct MapGather {
     int k = 0;                  ///< photons per k-NN estimate (unused with fixed_radius)
     float radius = 0.0f;        ///< world units: the k-NN estimate's largest radius, or the radius
     bool fixed_radius = false;  ///< every photon within radius counts (progressive photon mapping)
+    bool shrink_k = false;      ///< k-NN in a progressive run: k shrinks as the radius's power
 };
 
 struct GatherParams {
@@ -34,7 +35,9 @@ struct GatherParams {
 /// the scene's diagonal and 5% of the media's. A plain render gathers the k nearest within the
 /// radius; a progressive one (`progressive`) every photon within a fixed radius: the scene's, or
 /// where it gives none the median distance to the k-th nearest photon over up to 256 photons of
-/// `first` (the first iteration's maps; Hachisuka et al. start from a k-NN radius too). Paths that
+/// `first` (the first iteration's maps; Hachisuka et al. start from a k-NN radius too) — unless
+/// those distances spread too far for one radius (kSpreadForNearest), where it gathers the k
+/// nearest as a plain render does, k and the radius shrinking together (shrink_k). Paths that
 /// end in the volume map (volume.gather_depth > 0) gather it within a fixed radius found so in a
 /// plain render too.
 GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const PhotonMaps& first,
@@ -44,8 +47,9 @@ GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const Phot
 /// (surfaces) or 3 (volumes): r_i^d = r_1^d Π_{j=1}^{i-1} (j + α)/(j + 1) (Knaus & Zwicker 2011).
 float progressive_radius(float r1, int i, float alpha, int dimensions);
 
-/// Iteration i's gather from iteration 1's: fixed radii shrink by progressive_radius, k-NN
-/// gathers stay as they are.
+/// Iteration i's gather from iteration 1's: fixed radii shrink by progressive_radius, and so do
+/// the radii of shrink_k gathers, whose k shrinks as the radius's power (at least 1: the ball's
+/// expected photons where the radius caps it); other k-NN gathers stay as they are.
 GatherParams gather_at_iteration(const GatherParams& first, int i, float alpha);
 
 }  // namespace fogmap

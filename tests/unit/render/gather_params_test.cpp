@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -84,6 +85,29 @@ TEST(GatherAtIteration, ShrinksFixedRadiiOnlyBySurfaceAndVolumeDimensions) {
     EXPECT_EQ(p.gather_depth, first.gather_depth);
     // Iteration 1 is iteration 1's gather.
     EXPECT_EQ(gather_at_iteration(first, 1, alpha).volume.radius, first.volume.radius);
+}
+
+TEST(GatherAtIteration, NearestGathersOfAProgressiveRunShrinkTheirKWithTheRadiusPower) {
+    // k_i = k (r_i / r_1)^d = k Π_{j<i} (j + α)/(j + 1), rounded, at least 1.
+    const float alpha = 2.0f / 3.0f;
+    GatherParams first = fixed_and_knn(VolumeEstimator::Sphere);
+    first.global = {100, 0.4f, false, true};
+    first.volume = {50, 0.8f, false, true};
+    for (int i : {1, 2, 17, 100000, 20000000}) {
+        const GatherParams p = gather_at_iteration(first, i, alpha);
+        const double surface = std::pow(product_radius(1.0, i, alpha, 2), 2.0);
+        const double volume = std::pow(product_radius(1.0, i, alpha, 3), 3.0);
+        EXPECT_NEAR(p.global.radius, product_radius(0.4, i, alpha, 2), 1e-6) << i;
+        EXPECT_NEAR(p.volume.radius, product_radius(0.8, i, alpha, 3), 1e-6) << i;
+        EXPECT_EQ(p.global.k, std::max(1, int(std::lround(100.0 * surface)))) << i;
+        EXPECT_EQ(p.volume.k, std::max(1, int(std::lround(50.0 * volume)))) << i;
+        EXPECT_FALSE(p.global.fixed_radius || p.volume.fixed_radius);
+        EXPECT_EQ(p.caustic.k, 50);  // k-NN without shrink_k: as it was
+        EXPECT_EQ(p.caustic.radius, 0.2f);
+    }
+    EXPECT_EQ(gather_at_iteration(first, 17, alpha).global.k, 43);  // 100 · 0.428…
+    EXPECT_EQ(gather_at_iteration(first, 20000000, alpha).global.k,
+              1);  // 100 · 0.0041 rounds to 0: at least 1
 }
 
 TEST(GatherAtIteration, PhotonBeamsShrinkAsA2DKernel) {
@@ -213,6 +237,59 @@ TEST(GatherParams, ProgressiveRadiusFromTheMapsIsTheMedianKthNeighbourDistance) 
     // A plain render keeps the default k-NN radii whatever the maps hold.
     const GatherParams plain = gather_params(d, *scene, first, false);
     EXPECT_NEAR(plain.global.radius, 0.02 * std::sqrt(66.0), 1e-5);
+}
+
+/// Photons on a cubic lattice of n³ points of spacing h from `origin`, appended.
+void add_lattice(std::vector<Photon>* photons, const Vec3& origin, int n, float h) {
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+            for (int k = 0; k < n; ++k)
+                photons->emplace_back(origin + Vec3(i, j, k) * h, Vec3(0.0f, -1.0f, 0.0f),
+                                      Color(1.0f));
+}
+
+TEST(GatherParams, ProgressiveRunsGatherTheNearestFromMapsTooUnevenForOneRadius) {
+    // k = 2: the distance to the 2nd nearest is a lattice's spacing. Half the photons 0.001
+    // apart, half 0.1 apart: their 10th and 90th percentiles 100x apart (> 30), so the map's
+    // gathers take the k nearest within the default radius as a plain render's do; a lattice of
+    // one spacing keeps the fixed median radius, and so does the volume map where paths end in it.
+    SceneDesc d = known_bounds_scene();
+    d.global.k = 2;
+    d.caustic.k = 2;
+    d.volume.k = 2;
+    d.volume.gather_depth = 0;
+    std::vector<Photon> uneven;
+    add_lattice(&uneven, Vec3(0.0f), 8, 0.001f);
+    add_lattice(&uneven, Vec3(1.0f), 8, 0.1f);
+    const auto map_of = [](std::vector<Photon> photons) {
+        PhotonMap map;
+        map.tree = KdTree<Photon>(std::move(photons));
+        return map;
+    };
+    PhotonMaps first;
+    first.global = map_of(uneven);
+    first.volume = map_of(uneven);
+    first.caustic = lattice_map(5, 0.02f);
+    const auto scene = load_scene(d);
+    const GatherParams p = gather_params(d, *scene, first, true);
+    for (const MapGather* g : {&p.global, &p.volume}) {
+        EXPECT_FALSE(g->fixed_radius);
+        EXPECT_TRUE(g->shrink_k);
+        EXPECT_EQ(g->k, 2);
+    }
+    EXPECT_NEAR(p.global.radius, 0.02 * std::sqrt(66.0), 1e-5);
+    EXPECT_NEAR(p.volume.radius, 0.05 * 3.0, 1e-5);
+    EXPECT_TRUE(p.caustic.fixed_radius);
+    EXPECT_FALSE(p.caustic.shrink_k);
+    EXPECT_NEAR(p.caustic.radius, 0.02f, 1e-6f);
+    // Paths ending in the volume map gather it within a fixed radius whatever its spread.
+    d.volume.gather_depth = 3;
+    const GatherParams end = gather_params(d, *scene, first, true);
+    EXPECT_TRUE(end.volume.fixed_radius);
+    EXPECT_FALSE(end.volume.shrink_k);
+    // A plain render's gathers are k-NN that never shrink.
+    const GatherParams plain = gather_params(d, *scene, first, false);
+    EXPECT_FALSE(plain.global.shrink_k || plain.global.fixed_radius);
 }
 
 TEST(GatherParams, ProgressiveRadiusFallsBackToTheDefaultWithTooFewPhotons) {
