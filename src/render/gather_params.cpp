@@ -35,14 +35,14 @@ std::vector<float> knn_radii(const PhotonMap& map, int k, float r_max) {
 MapGather map_gather(int k, float radius, float default_radius, const std::optional<PhotonMap>& map,
                      bool progressive, bool nearest) {
     MapGather g{k, radius > 0.0f ? radius : default_radius, progressive};
-    if (!progressive || radius > 0.0f || !map) return g;
+    if (!progressive || !map) return g;
     const std::vector<float> r = knn_radii(*map, k, g.radius);
     const size_t n = r.size();
     if (n == 0) return g;
     if (nearest && r[9 * n / 10] > kSpreadForNearest * r[n / 10]) {
         g.fixed_radius = false;
         g.shrink_k = true;
-    } else {
+    } else if (radius == 0.0f) {
         g.radius = r[n / 2];
     }
     return g;

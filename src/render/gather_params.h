@@ -37,9 +37,9 @@ struct GatherParams {
 /// where it gives none the median distance to the k-th nearest photon over up to 256 photons of
 /// `first` (the first iteration's maps; Hachisuka et al. start from a k-NN radius too) — unless
 /// those distances spread too far for one radius (kSpreadForNearest), where it gathers the k
-/// nearest as a plain render does, k and the radius shrinking together (shrink_k). Paths that
-/// end in the volume map (volume.gather_depth > 0) gather it within a fixed radius found so in a
-/// plain render too.
+/// nearest within its radius (the scene's or the default) as a plain render does, k and the
+/// radius shrinking together (shrink_k). Paths that end in the volume map (volume.gather_depth
+/// > 0) gather it within a fixed radius found so in a plain render too.
 GatherParams gather_params(const SceneDesc& desc, const Scene& scene, const PhotonMaps& first,
                            bool progressive);
 

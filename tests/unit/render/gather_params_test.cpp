@@ -1,9 +1,11 @@
 // Gather parameters (render/gather_params.h) against values worked out here: progressive radii
 // against the product r_i^d = r_1^d Π_{j=1}^{i-1} (j + α)/(j + 1) multiplied out by a loop, later
-// iterations shrinking fixed radii only (by a 2D kernel for surfaces and photon beams, 3D for
+// iterations shrinking fixed radii (by a 2D kernel for surfaces and photon beams, 3D for
 // volume points), the default radii as 2% / 1% of the scene's diagonal and 5% of the media's for a
-// scene whose bounds are known by hand, and the progressive radius from the first maps as the
-// median distance to the k-th nearest photon on a lattice where that distance is the spacing.
+// scene whose bounds are known by hand, the progressive radius from the first maps as the
+// median distance to the k-th nearest photon on a lattice where that distance is the spacing,
+// and k-nearest gathers (k shrinking as the radius's power) where two lattices spread those
+// distances 100-fold.
 
 #include "render/gather_params.h"
 
@@ -106,8 +108,8 @@ TEST(GatherAtIteration, NearestGathersOfAProgressiveRunShrinkTheirKWithTheRadius
         EXPECT_EQ(p.caustic.radius, 0.2f);
     }
     EXPECT_EQ(gather_at_iteration(first, 17, alpha).global.k, 43);  // 100 · 0.428…
-    EXPECT_EQ(gather_at_iteration(first, 20000000, alpha).global.k,
-              1);  // 100 · 0.0041 rounds to 0: at least 1
+    // 100 · 0.0041 rounds to 0: at least 1.
+    EXPECT_EQ(gather_at_iteration(first, 20000000, alpha).global.k, 1);
 }
 
 TEST(GatherAtIteration, PhotonBeamsShrinkAsA2DKernel) {
@@ -251,11 +253,13 @@ void add_lattice(std::vector<Photon>* photons, const Vec3& origin, int n, float 
 TEST(GatherParams, ProgressiveRunsGatherTheNearestFromMapsTooUnevenForOneRadius) {
     // k = 2: the distance to the 2nd nearest is a lattice's spacing. Half the photons 0.001
     // apart, half 0.1 apart: their 10th and 90th percentiles 100x apart (> 30), so the map's
-    // gathers take the k nearest within the default radius as a plain render's do; a lattice of
-    // one spacing keeps the fixed median radius, and so does the volume map where paths end in it.
+    // gathers take the k nearest within its radius (the default, or the scene's) as a plain
+    // render's do; a lattice of one spacing keeps a fixed radius (the median, or the scene's),
+    // and so does the volume map where paths end in it.
     SceneDesc d = known_bounds_scene();
     d.global.k = 2;
     d.caustic.k = 2;
+    d.caustic.radius = 0.07f;
     d.volume.k = 2;
     d.volume.gather_depth = 0;
     std::vector<Photon> uneven;
@@ -268,20 +272,26 @@ TEST(GatherParams, ProgressiveRunsGatherTheNearestFromMapsTooUnevenForOneRadius)
     };
     PhotonMaps first;
     first.global = map_of(uneven);
+    first.caustic = map_of(uneven);
     first.volume = map_of(uneven);
-    first.caustic = lattice_map(5, 0.02f);
     const auto scene = load_scene(d);
     const GatherParams p = gather_params(d, *scene, first, true);
-    for (const MapGather* g : {&p.global, &p.volume}) {
+    for (const MapGather* g : {&p.global, &p.caustic, &p.volume}) {
         EXPECT_FALSE(g->fixed_radius);
         EXPECT_TRUE(g->shrink_k);
         EXPECT_EQ(g->k, 2);
     }
     EXPECT_NEAR(p.global.radius, 0.02 * std::sqrt(66.0), 1e-5);
+    EXPECT_EQ(p.caustic.radius, 0.07f);
     EXPECT_NEAR(p.volume.radius, 0.05 * 3.0, 1e-5);
-    EXPECT_TRUE(p.caustic.fixed_radius);
-    EXPECT_FALSE(p.caustic.shrink_k);
-    EXPECT_NEAR(p.caustic.radius, 0.02f, 1e-6f);
+    // Even maps: the median, or the scene's radius as it is.
+    first.global = lattice_map(12, 0.05f);
+    first.caustic = lattice_map(5, 0.02f);
+    const GatherParams even = gather_params(d, *scene, first, true);
+    EXPECT_TRUE(even.global.fixed_radius && even.caustic.fixed_radius);
+    EXPECT_FALSE(even.global.shrink_k || even.caustic.shrink_k);
+    EXPECT_NEAR(even.global.radius, 0.05f, 1e-6f);
+    EXPECT_EQ(even.caustic.radius, 0.07f);
     // Paths ending in the volume map gather it within a fixed radius whatever its spread.
     d.volume.gather_depth = 3;
     const GatherParams end = gather_params(d, *scene, first, true);
