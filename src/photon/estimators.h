@@ -34,7 +34,7 @@ struct BatchSums {
     /// Batch `batch`'s part, and its part of the estimate over r/√2.
     void add(size_t batch, float part, float inner_part) {
         all[batch] += part;
-        inner[batch * 2 / Photon::kBatches] += inner_part;
+        inner[size_t(Photon::half_of(int(batch)))] += inner_part;
     }
     /// Adds `sums`, an estimate's, in the unit of that estimate's value (its channels' average),
     /// their inner parts times κ: a sum of estimates then has the sums of its terms', κ applied.
@@ -53,9 +53,8 @@ struct BatchSums {
         const float sum = total();
         std::array<float, 2> out{};
         if (!(sum > 0.0f)) return out;
-        constexpr size_t kHalf = Photon::kBatches / 2;
         std::array<float, 2> half{};
-        for (size_t b = 0; b < all.size(); ++b) half[b / kHalf] += all[b];
+        for (size_t b = 0; b < all.size(); ++b) half[size_t(Photon::half_of(int(b)))] += all[b];
         for (size_t h = 0; h < 2; ++h) out[h] = 4.0f * (half[h] - kappa * inner[h]) / sum;
         return out;
     }
@@ -106,7 +105,7 @@ struct HalfCentroids {
     std::array<DVec3, 2> moment{DVec3(0.0), DVec3(0.0)};
     std::array<double, 2> power{0.0, 0.0};
     void add(const Photon& p, const Vec3& offset, float p_power) {
-        const int half = p.batch() * 2 / Photon::kBatches;
+        const int half = Photon::half_of(p.batch());
         moment[half] += double(p_power) * DVec3(offset);
         power[half] += p_power;
     }

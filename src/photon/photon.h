@@ -73,6 +73,9 @@ struct Photon {
     /// reads a map of independent paths, kBatches times sparser (render/volume_map_end.h).
     static constexpr int kBatches = 8;
     static constexpr int kBatchShift = 1;  ///< flags' bits 1-3 hold the batch
+    /// The photon half of batch b: 0 for batches 0 .. kBatches/2 − 1, 1 for the rest (two
+    /// independent halves of a map: RadiusBias, BlurCorrection).
+    static constexpr int half_of(int b) { return b * 2 / kBatches; }
 
     float pos[3];
     uint32_t power_rgbe;  ///< power relative to the map's photon power

@@ -35,7 +35,8 @@ std::vector<float> knn_radii(const PhotonMap& map, int k, float r_max) {
 MapGather map_gather(int k, float radius, float default_radius, const std::optional<PhotonMap>& map,
                      bool progressive, bool nearest) {
     MapGather g{k, radius > 0.0f ? radius : default_radius, progressive};
-    if (!progressive || !map) return g;
+    // The photons' distances set a fixed radius the scene leaves open, or pick the k nearest.
+    if (!progressive || !map || (radius > 0.0f && !nearest)) return g;
     const std::vector<float> r = knn_radii(*map, k, g.radius);
     const size_t n = r.size();
     if (n == 0) return g;

@@ -447,15 +447,20 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
     KernelDensity::Corners c;
     if (!batched()) parts = nullptr;
     if (!interpolate(x, &density, &m, &c, parts && !batch_power_.empty())) return Color(0.0f);
-    // LeanCorrection (header), where the grid holds moments; bounded by half the estimate.
+    // The kd-tree's lookups (no moments) fill the photon halves' centroids for BlurCorrection.
+    HalfCentroids halves;
+    HalfCentroids* const centroids = interpolates() ? nullptr : &halves;
+    // LeanCorrection (header) where the grid holds moments, bounded by half the estimate;
+    // BlurCorrection (header) where the lookup searched the kd-tree.
     const auto corrected = [&](const Color& e, float rho) {
-        if (!interpolates()) return e;
+        if (!interpolates()) return e / blur_factor(rho, halves, c);
         return e - glm::clamp(lean(c, x, density, -dir, phase, rho), -0.5f * e, 0.5f * e);
     };
     BatchSums sums;
     if (crowded(m.count)) {
         const float rho = radius_ * std::cbrt(k_ / m.count);
-        const Color e = smaller_ball(x, dir, phase, m.count, c, scratch, parts ? &sums : nullptr);
+        const Color e =
+            smaller_ball(x, dir, phase, m.count, scratch, parts ? &sums : nullptr, centroids);
         if (parts) parts_of(sums, kappa(x, rho), parts);
         return corrected(e, rho);
     }
@@ -467,10 +472,8 @@ Color VolumeMapEnd::inscattered(const Vec3& x, const Vec3& dir, const PhaseMix& 
                      (map_.photon_power * kInvFourPi / volume);
         if (parts && !batch_power_.empty()) parts_of(grid_sums(c), 1.0f, parts);
     } else {
-        HalfCentroids halves;
         collisions = volume_inscattered(map_, x, -dir, phase, 0, radius_, scratch,
-                                        parts ? &sums : nullptr, &halves);
-        collisions /= blur_factor(radius_, halves, c);
+                                        parts ? &sums : nullptr, centroids);
         if (parts) parts_of(sums, kappa(x, radius_), parts);
     }
     return corrected(divide(collisions, density), radius_);
@@ -523,14 +526,11 @@ BatchSums VolumeMapEnd::grid_sums(const KernelDensity::Corners& c) const {
 // AdaptiveRadius (header): every photon within r (k / n)^⅓, over σ_s averaged on that radius's
 // equal-volume cube.
 Color VolumeMapEnd::smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                                 const KernelDensity::Corners& c, NeighborList& scratch,
-                                 BatchSums* parts) const {
+                                 NeighborList& scratch, BatchSums* parts,
+                                 HalfCentroids* centroids) const {
     const float r = radius_ * std::cbrt(k_ / n);
-    HalfCentroids halves;  // BlurCorrection's, where no LeanCorrection follows
-    Color collisions = volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts,
-                                          interpolates() ? nullptr : &halves);
-    if (!interpolates()) collisions /= blur_factor(r, halves, c);
-    return divide(collisions, table_->cube_average(x, equal_volume_edge(r)));
+    return divide(volume_inscattered(map_, x, -dir, phase, 0, r, scratch, parts, centroids),
+                  table_->cube_average(x, equal_volume_edge(r)));
 }
 
 // BlurCorrection (header).

@@ -263,9 +263,9 @@ private:
     BatchSums grid_sums(const KernelDensity::Corners& c) const;
     /// n photons within r call for AdaptiveRadius.
     bool crowded(float n) const { return table_ && k_ > 0.0f && n > 2.0f * k_; }
+    /// `centroids` (may be null): its photon halves' centroids about x (volume_inscattered).
     Color smaller_ball(const Vec3& x, const Vec3& dir, const PhaseMix& phase, float n,
-                       const KernelDensity::Corners& c, NeighborList& scratch,
-                       BatchSums* parts) const;
+                       NeighborList& scratch, BatchSums* parts, HalfCentroids* centroids) const;
     // The estimate at a grid point p is Σ_p ΔΦ f(ω_p · ω_o) over the photons within r, and f's
     // Legendre series up to l = 2 makes it linear in the photons' moments Σ ΔΦ, Σ ΔΦ ω and
     // Σ ΔΦ ω ωᵀ: computed once per grid point, interpolated trilinearly at a lookup (one more

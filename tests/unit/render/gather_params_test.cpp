@@ -207,17 +207,26 @@ TEST(GatherParams, PathsEndingInTheVolumeMapGatherItWithinAFixedRadius) {
     EXPECT_FALSE(p.caustic.fixed_radius);
 }
 
-/// n³ photons on a cubic lattice of spacing h from the origin.
-PhotonMap lattice_map(int n, float h) {
-    std::vector<Photon> photons;
+/// Photons on a cubic lattice of n³ points of spacing h from `origin`, appended.
+void add_lattice(std::vector<Photon>* photons, const Vec3& origin, int n, float h) {
     for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j)
             for (int k = 0; k < n; ++k)
-                photons.emplace_back(Vec3(i * h, j * h, k * h), Vec3(0.0f, -1.0f, 0.0f),
-                                     Color(1.0f));
+                photons->emplace_back(origin + Vec3(i, j, k) * h, Vec3(0.0f, -1.0f, 0.0f),
+                                      Color(1.0f));
+}
+
+PhotonMap map_of(std::vector<Photon> photons) {
     PhotonMap map;
     map.tree = KdTree<Photon>(std::move(photons));
     return map;
+}
+
+/// n³ photons on a cubic lattice of spacing h from the origin.
+PhotonMap lattice_map(int n, float h) {
+    std::vector<Photon> photons;
+    add_lattice(&photons, Vec3(0.0f), n, h);
+    return map_of(std::move(photons));
 }
 
 TEST(GatherParams, ProgressiveRadiusFromTheMapsIsTheMedianKthNeighbourDistance) {
@@ -241,15 +250,6 @@ TEST(GatherParams, ProgressiveRadiusFromTheMapsIsTheMedianKthNeighbourDistance) 
     EXPECT_NEAR(plain.global.radius, 0.02 * std::sqrt(66.0), 1e-5);
 }
 
-/// Photons on a cubic lattice of n³ points of spacing h from `origin`, appended.
-void add_lattice(std::vector<Photon>* photons, const Vec3& origin, int n, float h) {
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j)
-            for (int k = 0; k < n; ++k)
-                photons->emplace_back(origin + Vec3(i, j, k) * h, Vec3(0.0f, -1.0f, 0.0f),
-                                      Color(1.0f));
-}
-
 TEST(GatherParams, ProgressiveRunsGatherTheNearestFromMapsTooUnevenForOneRadius) {
     // k = 2: the distance to the 2nd nearest is a lattice's spacing. Half the photons 0.001
     // apart, half 0.1 apart: their 10th and 90th percentiles 100x apart (> 30), so the map's
@@ -265,11 +265,6 @@ TEST(GatherParams, ProgressiveRunsGatherTheNearestFromMapsTooUnevenForOneRadius)
     std::vector<Photon> uneven;
     add_lattice(&uneven, Vec3(0.0f), 8, 0.001f);
     add_lattice(&uneven, Vec3(1.0f), 8, 0.1f);
-    const auto map_of = [](std::vector<Photon> photons) {
-        PhotonMap map;
-        map.tree = KdTree<Photon>(std::move(photons));
-        return map;
-    };
     PhotonMaps first;
     first.global = map_of(uneven);
     first.caustic = map_of(uneven);

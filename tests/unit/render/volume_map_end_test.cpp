@@ -503,6 +503,20 @@ TEST(VolumeMapEnd, WhetherAPathEndsDoesNotFollowTheNoiseOfTheLookupsPhotons) {
     EXPECT_NEAR((ended / n_ended) / (all / points), 1.0, 0.02);
 }
 
+// A photon of power 1 at p pointing every way, in a random one of the batches.
+Photon batched_photon(const Vec3& p, Rng& rng) {
+    Photon photon(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())), Color(1.0f));
+    photon.set_batch(int(rng.uniform() * Photon::kBatches));
+    return photon;
+}
+
+PhotonMap map_of(std::vector<Photon> photons, float photon_power) {
+    PhotonMap map;
+    map.tree = KdTree<Photon>(std::move(photons));
+    map.photon_power = photon_power;
+    return map;
+}
+
 // PhotonBatches: a batched map's lookup, times a batch's share, is the lookup of a map holding
 // that batch's photons alone at kBatches times their power — computed here from such a map. Grey
 // photons pointing every way in a homogeneous medium: at g 0 the grid's lookups (the power's
@@ -523,11 +537,8 @@ TEST(VolumeMapEnd, ABatchsShareOfALookupIsTheLookupOfItsPhotonsAlone) {
             if (photon.batch() == batch) alone.push_back(photon);
         }
         ASSERT_GT(alone.size(), 8000u);
-        PhotonMap map_all, map_alone;
-        map_all.tree = KdTree<Photon>(std::move(all));
-        map_all.photon_power = 0.01f;
-        map_alone.tree = KdTree<Photon>(std::move(alone));
-        map_alone.photon_power = 0.01f * Photon::kBatches;
+        const PhotonMap map_all = map_of(std::move(all), 0.01f);
+        const PhotonMap map_alone = map_of(std::move(alone), 0.01f * Photon::kBatches);
         const std::vector<Medium> media{Medium::homogeneous(
             {Color(2.0f, 1.0f, 0.5f), Color(0.1f), g}, Box3{Vec3(-2.0f), Vec3(2.0f)})};
         const float radius = 0.3f;
@@ -552,20 +563,6 @@ TEST(VolumeMapEnd, ABatchsShareOfALookupIsTheLookupOfItsPhotonsAlone) {
                     << "g " << g << ", lookup " << i << ", channel " << c;
         }
     }
-}
-
-// A photon of power 1 at p pointing every way, in a random one of the batches.
-Photon batched_photon(const Vec3& p, Rng& rng) {
-    Photon photon(p, sample_uniform_sphere(Vec2(rng.uniform(), rng.uniform())), Color(1.0f));
-    photon.set_batch(int(rng.uniform() * Photon::kBatches));
-    return photon;
-}
-
-PhotonMap map_of(std::vector<Photon> photons, float photon_power) {
-    PhotonMap map;
-    map.tree = KdTree<Photon>(std::move(photons));
-    map.photon_power = photon_power;
-    return map;
 }
 
 // RadiusBias: photons whose density grows as 1 + 4 x² about the plane x = 0 (pointing every way,
